@@ -1,0 +1,195 @@
+// ik, run-tool and demo: marker IK from the command line, OpenSim setups, and a self-contained demo.
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "commands.h"
+#include "cpgait/capture/ik_setup.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/xml_document.h"
+#include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/ik/inverse_kinematics.h"
+#include "cpgait/model/osim_reader.h"
+#include "output_files.h"
+
+namespace cpgait::services {
+namespace fs = std::filesystem;
+
+namespace {
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+}
+
+IkOptions::Bounds parse_bounds(const std::string& s) {
+  if (s == "clamped") return IkOptions::Bounds::kClampedOnly;
+  if (s == "all") return IkOptions::Bounds::kAllRanges;
+  return IkOptions::Bounds::kNone;
+}
+
+struct IkRun {
+  std::string motion_path;
+  std::string errors_path;
+  IkResult result;
+};
+
+IkRun run_ik_and_write(const Model& model, const MarkerTrial& trial, const IkTaskSet& tasks, const IkOptions& options,
+                       const Storage* coordinate_reference, const std::string& out_dir, const std::string& motion_file,
+                       const std::string& errors_file, bool report_errors) {
+  IkRun run;
+  run.result = inverse_kinematics(model, trial, tasks, options, coordinate_reference);
+  ensure_directory(out_dir);
+  run.motion_path = (fs::path(out_dir) / motion_file).string();
+  write_storage_atomic(ik_coordinates_table(model, run.result), run.motion_path);
+  if (report_errors) {
+    run.errors_path = (fs::path(out_dir) / errors_file).string();
+    write_storage_atomic(ik_marker_errors_table(run.result), run.errors_path);
+  }
+  print_warnings(run.result.summary.warnings);
+  std::printf("%s\nwrote %s%s%s\n", run.result.summary.BriefReport().c_str(), run.motion_path.c_str(),
+              report_errors ? "\nwrote " : "", report_errors ? run.errors_path.c_str() : "");
+  return run;
+}
+
+// A file named by a setup: relative to the setup's folder, as OpenSim resolves it. OpenSim's
+// published pipelines keep their models in OutputReference/ beside the setup, so that is tried next.
+std::string resolve_setup_file(const std::string& setup_dir, const std::string& name, const std::string& setup_path,
+                               const char* field) {
+  if (name.empty()) return name;
+  fs::path p(name);
+  if (p.is_absolute() && fs::exists(p)) return p.string();
+  for (const fs::path& candidate : {fs::path(setup_dir) / p, fs::path(setup_dir) / "OutputReference" / p})
+    if (fs::exists(candidate)) return candidate.lexically_normal().string();
+  throw InputError(setup_path, 0, field, "file '" + name + "' not found beside the setup");
+}
+
+void run_ik_setup(const std::string& setup_path, const std::string& results_override, const std::string& bounds) {
+  const IkSetup s = read_ik_setup(setup_path);
+  const std::string model_path = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
+  if (model_path.empty()) throw InputError(setup_path, 0, "model_file", "the setup names no model");
+  const OsimReadResult mr = read_osim(model_path);
+  print_warnings(mr.warnings);
+  const MarkerTrial trial = read_trc(resolve_setup_file(s.setup_dir, s.marker_file, setup_path, "marker_file"));
+  print_warnings(trial.warnings);
+  Storage reference;
+  const bool have_reference = !s.coordinate_file.empty();
+  if (have_reference)
+    reference = read_storage(resolve_setup_file(s.setup_dir, s.coordinate_file, setup_path, "coordinate_file"));
+  IkOptions options;
+  options.time_range_s = s.time_range_s;
+  options.bounds = parse_bounds(bounds);
+  const std::string out_dir = !results_override.empty() ? results_override
+                                                        : (fs::path(s.setup_dir) / s.results_directory).string();
+  const std::string name = s.name.empty() ? "ik" : s.name;
+  const std::string motion = s.output_motion_file.empty() ? name + "_ik.mot" : s.output_motion_file;
+  run_ik_and_write(mr.model, trial, s.tasks, options, have_reference ? &reference : nullptr, out_dir, motion,
+                   name + "_ik_marker_errors.sto", s.report_errors);
+}
+
+}  // namespace
+
+void add_ik_commands(CLI::App& app) {
+  // ---- ik
+  auto* ik = app.add_subcommand("ik",
+                                "Inverse kinematics: fit the model's coordinates to measured markers, frame by frame.\n"
+                                "Inputs: an .osim model, a .trc marker file (mm, cm or m), optional weights.\n"
+                                "Outputs in DIR: <name>_ik.mot (angles in degrees, translations in m) and\n"
+                                "<name>_ik_marker_errors.sto (per frame: total squared error m^2, RMS and max error m,\n"
+                                "then each tracked marker's error m).");
+  struct IkArgs {
+    std::string model, markers, setup, tasks, marker_set, out, name, bounds = "clamped";
+    std::vector<double> time;
+  };
+  auto a = std::make_shared<IkArgs>();
+  ik->add_option("--model", a->model, "OpenSim model (.osim), 3.x or 4.x")->required()->check(CLI::ExistingFile);
+  ik->add_option("--markers", a->markers, "marker trajectories (.trc)")->required()->check(CLI::ExistingFile);
+  ik->add_option("--setup", a->setup, "OpenSim IK setup (.xml) whose IKTaskSet and time range are used")
+      ->check(CLI::ExistingFile);
+  ik->add_option("--tasks", a->tasks, "IK task weights: an IKTaskSet .xml or the .json equivalent")
+      ->check(CLI::ExistingFile);
+  ik->add_option("--marker-set", a->marker_set, "marker-set XML that replaces/adds model markers")
+      ->check(CLI::ExistingFile);
+  ik->add_option("--time", a->time, "first and last time to solve, seconds")->expected(2);
+  ik->add_option("--bounds", a->bounds, "coordinate ranges as bounds: clamped (OpenSim: only clamped coordinates), all, none")
+      ->check(CLI::IsMember({"clamped", "all", "none"}));
+  ik->add_option("--name", a->name, "output file prefix (default: the marker file's name)");
+  ik->add_option("-o,--output", a->out, "output folder")->required();
+  ik->callback([a] {
+    OsimReadOptions ro;
+    ro.marker_set_file = a->marker_set;
+    const OsimReadResult mr = read_osim(a->model, ro);
+    print_warnings(mr.warnings);
+    const MarkerTrial trial = read_trc(a->markers);
+    print_warnings(trial.warnings);
+    IkOptions options;
+    options.bounds = parse_bounds(a->bounds);
+    IkTaskSet tasks;
+    if (!a->setup.empty()) {
+      const IkSetup s = read_ik_setup(a->setup);
+      tasks = s.tasks;
+      options.time_range_s = s.time_range_s;
+    }
+    if (!a->tasks.empty()) tasks = read_ik_tasks(a->tasks);
+    if (a->time.size() == 2) options.time_range_s = std::make_pair(a->time[0], a->time[1]);
+    const std::string name = a->name.empty() ? fs::path(a->markers).stem().string() : a->name;
+    run_ik_and_write(mr.model, trial, tasks, options, nullptr, a->out, name + "_ik.mot", name + "_ik_marker_errors.sto",
+                     true);
+  });
+
+  // ---- run-tool
+  auto* rt = app.add_subcommand("run-tool",
+                                "Run an OpenSim tool setup file as OpenSim would: files resolved relative to the setup,\n"
+                                "results where the setup says (or in --results). Supported: InverseKinematicsTool.");
+  struct RtArgs {
+    std::string setup, results, bounds = "clamped";
+  };
+  auto r = std::make_shared<RtArgs>();
+  rt->add_option("setup", r->setup, "the tool's setup .xml")->required()->check(CLI::ExistingFile);
+  rt->add_option("--results", r->results, "write results here instead of the setup's results_directory");
+  rt->add_option("--bounds", r->bounds, "IK coordinate bounds: clamped, all, none")
+      ->check(CLI::IsMember({"clamped", "all", "none"}));
+  rt->callback([r] {
+    const auto d = xml::Document::load_file(r->setup);
+    auto root = d.doc().document_element();
+    if (std::string(root.name()) == "OpenSimDocument") root = root.first_child();
+    const std::string tool = root.name();
+    if (tool == "InverseKinematicsTool") return run_ik_setup(r->setup, r->results, r->bounds);
+    throw InputError(r->setup, d.line_of(root), tool, "this tool is not supported yet (supported: InverseKinematicsTool)");
+  });
+
+  // ---- demo
+  auto* demo = app.add_subcommand("demo",
+                                  "Self-contained run: synthesizes a walking trial from cpgait's fixture model\n"
+                                  "(1 mm marker noise, gaps), runs IK on it and reports the error against the truth.\n"
+                                  "Writes DIR/synthetic.trc and the IK results.");
+  auto demo_out = std::make_shared<std::string>("demo-output");
+  demo->add_option("-o,--output", *demo_out, "output folder (default ./demo-output)");
+  demo->callback([demo_out] {
+    const std::string model_path = std::string(fixtures::fixtures_dir()) + "/models/walker.osim";
+    const OsimReadResult mr = read_osim(model_path);
+    fixtures::SyntheticTrialOptions so;
+    so.noise_m = 0.001;
+    so.gap_fraction = 0.2;
+    const auto synth = fixtures::synthesize_trial(mr.model, so);
+    ensure_directory(*demo_out);
+    const std::string trc = (fs::path(*demo_out) / "synthetic.trc").string();
+    write_text_atomic(trc, format_trc(synth.markers, "mm"));
+    std::printf("model %s: %zu bodies, %d coordinates, %zu markers, %zu muscles\n", model_path.c_str(),
+                mr.model.bodies.size() - 1, mr.model.num_coordinates(), mr.model.markers.size(), mr.model.muscles.size());
+    std::printf("wrote %s (%d frames, %d markers, %zu gaps)\n", trc.c_str(), synth.markers.num_frames(),
+                synth.markers.num_markers(), synth.markers.gaps().size());
+    const MarkerTrial trial = read_trc(trc);
+    const IkRun run = run_ik_and_write(mr.model, trial, {}, {}, nullptr, *demo_out, "synthetic_ik.mot",
+                                       "synthetic_ik_marker_errors.sto", true);
+    double worst_deg = 0;
+    std::string worst;
+    for (int c = 0; c < mr.model.num_coordinates(); ++c) {
+      if (!mr.model.coordinates[c].is_angle()) continue;
+      const double rms = std::sqrt((run.result.q.col(c) - synth.q.col(c)).array().square().mean()) * 180 / M_PI;
+      if (rms > worst_deg) worst_deg = rms, worst = mr.model.coordinates[c].name;
+    }
+    std::printf("largest coordinate RMS error against the truth: %.3f deg (%s)\n", worst_deg, worst.c_str());
+  });
+}
+
+}  // namespace cpgait::services

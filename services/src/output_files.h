@@ -1,0 +1,15 @@
+#pragma once
+// Result files are written to a temporary name and renamed into place, so a crash or a concurrent
+// reader never sees half a file.
+#include <string>
+
+#include "cpgait/capture/storage.h"
+
+namespace cpgait::services {
+
+void write_text_atomic(const std::string& path, const std::string& content);
+void write_storage_atomic(const Storage& table, const std::string& path);
+// Creates the folder (and parents); throws with the path on failure.
+void ensure_directory(const std::string& dir);
+
+}  // namespace cpgait::services

@@ -1,0 +1,75 @@
+#pragma once
+// OpenSim's one-variable functions (Constant, LinearFunction, SimmSpline, NaturalCubicSpline,
+// PiecewiseLinearFunction, PolynomialFunction, MultiplierFunction folded in as `scale`), evaluated
+// on any scalar type so that Ceres Jets differentiate through them exactly.
+#include <string>
+#include <vector>
+
+#include "cpgait/scalar.h"
+
+namespace cpgait {
+
+class Function {
+ public:
+  enum class Kind { kConstant, kLinear, kCubicSpline, kPiecewiseLinear, kPolynomial };
+
+  static Function constant(double value);
+  static Function linear(double slope, double intercept);
+  // Forsythe-Malcolm-Moler cubic spline with end third derivatives from divided differences
+  // (OpenSim's SimmSpline); linear extrapolation with the end slopes.
+  static Function simm_spline(std::vector<double> x, std::vector<double> y);
+  // Natural end conditions (zero second derivative), linear extrapolation.
+  static Function natural_cubic_spline(std::vector<double> x, std::vector<double> y);
+  static Function piecewise_linear(std::vector<double> x, std::vector<double> y);
+  // coefficients from the highest power down, as OpenSim's PolynomialFunction.
+  static Function polynomial(std::vector<double> coefficients);
+
+  Function scaled(double factor) const;  // MultiplierFunction
+
+  Kind kind() const { return kind_; }
+  bool is_constant() const { return kind_ == Kind::kConstant; }
+  double scale() const { return scale_; }
+
+  template <typename T>
+  T value(const T& x) const;
+  double derivative(double x) const;
+  double second_derivative(double x) const;
+
+ private:
+  Kind kind_ = Kind::kConstant;
+  double scale_ = 1.0;
+  // Constant: c_[0]. Linear: c_[0] slope, c_[1] intercept. Polynomial: c_ highest power first.
+  std::vector<double> c_;
+  // Splines: knots x_, values y_, and per-interval coefficients b_, cc_, d_ of
+  // y_i + b_i dx + cc_i dx^2 + d_i dx^3.
+  std::vector<double> x_, y_, b_, cc_, d_;
+  int interval(double x) const;
+};
+
+template <typename T>
+T Function::value(const T& x) const {
+  switch (kind_) {
+    case Kind::kConstant:
+      return T(scale_ * c_[0]);
+    case Kind::kLinear:
+      return scale_ * (c_[0] * x + c_[1]);
+    case Kind::kPolynomial: {
+      T r(0.0);
+      for (double c : c_) r = r * x + c;
+      return scale_ * r;
+    }
+    case Kind::kPiecewiseLinear:
+    case Kind::kCubicSpline: {
+      const double xv = scalar_value(x);
+      const int n = static_cast<int>(x_.size());
+      if (xv < x_[0]) return scale_ * (y_[0] + b_[0] * (x - x_[0]));
+      if (xv > x_[n - 1]) return scale_ * (y_[n - 1] + b_[n - 1] * (x - x_[n - 1]));
+      const int i = interval(xv);
+      const T dx = x - x_[i];
+      return scale_ * (y_[i] + dx * (b_[i] + dx * (cc_[i] + dx * d_[i])));
+    }
+  }
+  return T(0.0);
+}
+
+}  // namespace cpgait

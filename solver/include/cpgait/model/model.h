@@ -1,0 +1,129 @@
+#pragma once
+// The immutable musculoskeletal model. Built once by the .osim reader, then shared read-only by every
+// thread; all per-evaluation state lives in a Workspace (see kinematics/forward_kinematics.h).
+//
+// Every joint is stored as OpenSim's CustomJoint SpatialTransform (three body-fixed rotations, then
+// three translations along axes fixed in the parent's joint frame F, each a function of one
+// coordinate); Pin, Weld, Ball, Free, Slider, Universal and Planar joints are converted to it.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cpgait/model/function.h"
+
+namespace cpgait {
+
+// A rigid transform: x_parent = rotation * x_child + translation.
+struct Pose {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();
+};
+
+struct Body {
+  std::string name;
+  double mass_kg = 0;
+  Eigen::Vector3d com_m = Eigen::Vector3d::Zero();          // in the body frame
+  Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();  // about the COM, in the body frame
+  int joint = -1;                                            // the joint whose child this is; -1 for ground
+};
+
+struct TransformAxis {
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // unit, in F
+  int coordinate = -1;                              // -1: function is constant
+  Function function = Function::constant(0.0);
+};
+
+struct Joint {
+  std::string name;
+  std::string type;  // as in the file: CustomJoint, PinJoint, ...
+  int parent_body = 0;
+  int child_body = 0;
+  Pose parent_offset;  // frame F in the parent body
+  Pose child_offset;   // frame M in the child body
+  std::array<TransformAxis, 6> axes;  // rotation1..3, translation1..3
+  std::vector<int> coordinates;
+};
+
+struct Coordinate {
+  enum class Motion { kRotational, kTranslational, kCoupled };
+  std::string name;
+  int joint = -1;
+  Motion motion = Motion::kRotational;
+  double default_value = 0;  // rad or m
+  double range_min = -1e30;
+  double range_max = 1e30;
+  bool clamped = false;
+  bool locked = false;
+  bool is_angle() const { return motion != Motion::kTranslational; }
+};
+
+struct Marker {
+  std::string name;
+  int body = 0;
+  Eigen::Vector3d location_m = Eigen::Vector3d::Zero();  // in the body frame
+  bool fixed = false;
+};
+
+struct PathPoint {
+  enum class Kind { kFixed, kConditional, kMoving };
+  std::string name;
+  Kind kind = Kind::kFixed;
+  int body = 0;
+  Eigen::Vector3d location_m = Eigen::Vector3d::Zero();
+  // kConditional: active while range_min <= q[coordinate] <= range_max.
+  int coordinate = -1;
+  double range_min = 0, range_max = 0;
+  // kMoving: location[k] = functions[k](q[moving_coordinates[k]]).
+  std::array<int, 3> moving_coordinates{-1, -1, -1};
+  std::array<Function, 3> moving_functions{Function::constant(0), Function::constant(0), Function::constant(0)};
+};
+
+struct Muscle {
+  std::string name;
+  std::string type;  // Thelen2003Muscle, Millard2012EquilibriumMuscle, ...
+  double max_isometric_force_N = 0;
+  double optimal_fiber_length_m = 0;
+  double tendon_slack_length_m = 0;
+  double pennation_angle_at_optimal_rad = 0;
+  double max_contraction_velocity = 10;  // optimal fiber lengths per second
+  double activation_time_constant_s = 0.015;
+  double deactivation_time_constant_s = 0.060;
+  // Thelen2003 curve parameters (OpenSim defaults when absent).
+  double fmax_tendon_strain = 0.04;
+  double fmax_muscle_strain = 0.6;
+  double kshape_active = 0.45;
+  double kshape_passive = 5.0;
+  double af = 0.25;
+  double flen = 1.4;
+  double min_control = 0.01;
+  double max_control = 1.0;
+  std::vector<PathPoint> path;
+};
+
+class Model {
+ public:
+  std::string name;
+  std::string source;  // file it was read from
+  Eigen::Vector3d gravity_m_s2{0, -9.80665, 0};
+  std::vector<Body> bodies;          // bodies[0] is ground
+  std::vector<Joint> joints;         // ordered so that a joint's parent body comes before its child
+  std::vector<Coordinate> coordinates;
+  std::vector<Marker> markers;
+  std::vector<Muscle> muscles;
+
+  int num_coordinates() const { return static_cast<int>(coordinates.size()); }
+  int body_index(std::string_view name) const;
+  int coordinate_index(std::string_view name) const;
+  int marker_index(std::string_view name) const;
+  int joint_index(std::string_view name) const;
+  Eigen::VectorXd default_coordinates() const;
+  double total_mass_kg() const;
+};
+
+// Rotation of OpenSim's `orientation` (body-fixed X-Y-Z Euler angles, rad).
+Eigen::Matrix3d rotation_from_body_xyz(const Eigen::Vector3d& angles_rad);
+
+}  // namespace cpgait

@@ -1,0 +1,340 @@
+#include "cpgait/ik/inverse_kinematics.h"
+
+#include <ceres/ceres.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/kinematics/motion_subspace.h"
+
+namespace cpgait {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kPi = 3.14159265358979323846;
+
+// Reference coordinate values (from_file tasks) at time t, internal units, linear interpolation.
+Eigen::VectorXd reference_row_at(const Model& model, const Storage& ref, const IkTargets& targets, double t) {
+  Eigen::VectorXd row = Eigen::VectorXd::Constant(ref.num_columns(), kNaN);
+  const auto time = ref.time();
+  const int n = ref.num_rows();
+  int i = 0;
+  while (i + 1 < n && time[i + 1] < t) ++i;
+  const int k = std::min(i + 1, n - 1);
+  const double span = time[k] - time[i];
+  const double a = span > 0 ? std::clamp((t - time[i]) / span, 0.0, 1.0) : 0.0;
+  const bool degrees = ref.in_degrees.value_or(true);
+  for (const auto& c : targets.coordinates) {
+    if (c.reference_column < 0) continue;
+    double v = (1 - a) * ref.data(i, c.reference_column) + a * ref.data(k, c.reference_column);
+    if (degrees && model.coordinates[c.coordinate].is_angle()) v *= kPi / 180.0;
+    row[c.reference_column] = v;
+  }
+  return row;
+}
+
+// Residuals: sqrt(w) * (p_model - p_measured) per marker (zero where the marker is missing), then
+// sqrt(w) * (q - q_task) per coordinate task. Parameters: the free (unlocked) coordinates.
+class IkCost final : public ceres::CostFunction {
+ public:
+  IkCost(const Model& model, const IkTargets& targets, const std::vector<int>& free, const Eigen::VectorXd& q_fixed)
+      : model_(model), targets_(targets), free_(free), q_(q_fixed), ws_(model), S_(model),
+        free_slot_(model.num_coordinates(), -1) {
+    set_num_residuals(static_cast<int>(3 * targets.markers.size() + targets.coordinates.size()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
+    for (std::size_t k = 0; k < free.size(); ++k) free_slot_[free[k]] = static_cast<int>(k);
+    for (const auto& m : targets.markers) {
+      std::vector<int> slots;
+      for (int c : ancestor_coordinates(model, model.markers[m.model_marker].body))
+        if (free_slot_[c] >= 0) slots.push_back(c);
+      marker_coordinates_.push_back(std::move(slots));
+      sqrt_w_markers_.push_back(std::sqrt(m.weight));
+    }
+  }
+
+  void set_frame(const MarkerTrial* trial, int frame, const Eigen::VectorXd* reference_row) {
+    trial_ = trial;
+    frame_ = frame;
+    reference_row_ = reference_row;
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* x = parameters[0];
+    for (std::size_t k = 0; k < free_.size(); ++k) q_[free_[k]] = x[k];
+    forward_kinematics(model_, q_.data(), ws_);
+    const bool want_j = jacobians && jacobians[0];
+    const int nf = static_cast<int>(free_.size());
+    if (want_j) {
+      motion_subspace(model_, q_.data(), ws_, S_);
+      std::fill(jacobians[0], jacobians[0] + static_cast<std::size_t>(num_residuals()) * nf, 0.0);
+    }
+    for (std::size_t i = 0; i < targets_.markers.size(); ++i) {
+      const auto& m = targets_.markers[i];
+      const auto measured = trial_->position_m(frame_, m.trial_marker);
+      double* r = residuals + 3 * i;
+      if (std::isnan(measured[0])) {
+        r[0] = r[1] = r[2] = 0.0;
+        continue;
+      }
+      const Eigen::Vector3d p = marker_position(model_, m.model_marker, ws_);
+      const double sw = sqrt_w_markers_[i];
+      for (int a = 0; a < 3; ++a) r[a] = sw * (p[a] - measured[a]);
+      if (!want_j) continue;
+      double* J = jacobians[0] + 3 * i * nf;  // row-major
+      for (int c : marker_coordinates_[i]) {
+        const Eigen::Vector3d d = S_.columns.col(c).head<3>().cross(p) + S_.columns.col(c).tail<3>();
+        const int k = free_slot_[c];
+        J[k] = sw * d[0];
+        J[nf + k] = sw * d[1];
+        J[2 * nf + k] = sw * d[2];
+      }
+    }
+    const int base = static_cast<int>(3 * targets_.markers.size());
+    for (std::size_t i = 0; i < targets_.coordinates.size(); ++i) {
+      const auto& c = targets_.coordinates[i];
+      const double target = c.reference_column >= 0 ? (*reference_row_)[c.reference_column] : c.value;
+      const double sw = std::sqrt(c.weight);
+      residuals[base + i] = sw * (q_[c.coordinate] - target);
+      if (want_j && free_slot_[c.coordinate] >= 0) jacobians[0][(base + i) * nf + free_slot_[c.coordinate]] = sw;
+    }
+    return true;
+  }
+
+ private:
+  const Model& model_;
+  const IkTargets& targets_;
+  const std::vector<int>& free_;
+  mutable Eigen::VectorXd q_;
+  mutable KinematicsWorkspace<double> ws_;
+  mutable MotionSubspace S_;
+  std::vector<int> free_slot_;
+  std::vector<std::vector<int>> marker_coordinates_;
+  std::vector<double> sqrt_w_markers_;
+  const MarkerTrial* trial_ = nullptr;
+  int frame_ = 0;
+  const Eigen::VectorXd* reference_row_ = nullptr;
+};
+
+}  // namespace
+
+IkTargets make_ik_targets(const Model& model, const MarkerTrial& trial, const IkTaskSet& tasks,
+                          const IkOptions& options, const Storage* coordinate_reference) {
+  IkTargets t;
+  auto add_marker = [&](const std::string& name, double weight) {
+    const int mm = model.marker_index(name), tm = trial.marker_index(name);
+    if (mm < 0 || tm < 0) {
+      t.warnings.push_back("marker '" + name + "' is " + (mm < 0 ? "not in the model" : "not in the trial") +
+                           "; not tracked");
+      return;
+    }
+    if (weight > 0) t.markers.push_back({mm, tm, weight});
+  };
+  if (tasks.markers.empty()) {
+    for (const auto& mk : model.markers) {
+      if (trial.marker_index(mk.name) >= 0) add_marker(mk.name, options.default_marker_weight);
+    }
+  } else {
+    for (const auto& mt : tasks.markers)
+      if (mt.apply) add_marker(mt.name, mt.weight);
+  }
+  for (const auto& name : trial.marker_names)
+    if (model.marker_index(name) < 0) t.warnings.push_back("trial marker '" + name + "' is not in the model; ignored");
+  for (const auto& ct : tasks.coordinates) {
+    if (!ct.apply || ct.weight <= 0) continue;
+    const int c = model.coordinate_index(ct.name);
+    if (c < 0) throw InputError("IK tasks", 0, ct.name, "coordinate task names a coordinate the model does not have");
+    IkTargets::CoordinateTarget target{c, ct.weight, model.coordinates[c].default_value, -1};
+    if (ct.value_type == IkCoordinateTask::ValueType::kManualValue) target.value = ct.value;
+    if (ct.value_type == IkCoordinateTask::ValueType::kFromFile) {
+      if (!coordinate_reference)
+        throw InputError("IK tasks", 0, ct.name, "task is from_file but no coordinate file was given");
+      target.reference_column = coordinate_reference->column(ct.name);
+      if (target.reference_column < 0)
+        throw InputError("coordinate file", 0, ct.name, "the coordinate file has no column for this task");
+    }
+    t.coordinates.push_back(target);
+  }
+  if (t.markers.empty())
+    throw InputError(trial.name, 0, "markers", "no marker is both in the model and in the trial with a positive weight");
+  return t;
+}
+
+double ik_objective(const Model& model, const IkTargets& targets, const MarkerTrial& trial, int frame,
+                    const Eigen::VectorXd& q, const Eigen::VectorXd* reference_row) {
+  KinematicsWorkspace<double> ws(model);
+  forward_kinematics(model, q.data(), ws);
+  double f = 0;
+  for (const auto& m : targets.markers) {
+    const auto measured = trial.position_m(frame, m.trial_marker);
+    if (std::isnan(measured[0])) continue;
+    f += m.weight * (marker_position(model, m.model_marker, ws) - measured).squaredNorm();
+  }
+  for (const auto& c : targets.coordinates) {
+    const double target = c.reference_column >= 0 ? (*reference_row)[c.reference_column] : c.value;
+    f += c.weight * std::pow(q[c.coordinate] - target, 2);
+  }
+  return f;
+}
+
+IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const IkTaskSet& tasks,
+                            const IkOptions& options, const Storage* coordinate_reference, Progress* progress) {
+  IkResult result;
+  const IkTargets targets = make_ik_targets(model, trial, tasks, options, coordinate_reference);
+  result.summary.warnings = targets.warnings;
+
+  std::vector<int> frames;
+  for (int f = 0; f < trial.num_frames(); ++f) {
+    const double t = trial.time_s[f];
+    if (options.time_range_s && (t < options.time_range_s->first - 1e-9 || t > options.time_range_s->second + 1e-9))
+      continue;
+    frames.push_back(f);
+  }
+  if (frames.empty()) throw InputError(trial.name, 0, "time_range", "no frame of the trial lies in the requested time range");
+
+  const int nq = model.num_coordinates();
+  std::vector<int> free;
+  for (int c = 0; c < nq; ++c)
+    if (!model.coordinates[c].locked) free.push_back(c);
+  Eigen::VectorXd q = model.default_coordinates();
+  IkCost* cost = new IkCost(model, targets, free, q);
+  std::vector<double> x(free.size());
+  for (std::size_t k = 0; k < free.size(); ++k) x[k] = q[free[k]];
+
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  problem.AddResidualBlock(cost, nullptr, x.data());
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    const Coordinate& c = model.coordinates[free[k]];
+    const bool bound = options.bounds == IkOptions::Bounds::kAllRanges ||
+                       (options.bounds == IkOptions::Bounds::kClampedOnly && c.clamped);
+    if (!bound || c.range_min <= -1e29) continue;
+    problem.SetParameterLowerBound(x.data(), static_cast<int>(k), c.range_min);
+    problem.SetParameterUpperBound(x.data(), static_cast<int>(k), c.range_max);
+    x[k] = std::clamp(x[k], c.range_min, c.range_max);
+  }
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.minimizer_progress_to_stdout = false;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = 1;
+  so.function_tolerance = options.function_tolerance;
+  so.gradient_tolerance = options.gradient_tolerance;
+  so.parameter_tolerance = options.parameter_tolerance;
+  so.max_num_iterations = options.max_iterations;
+
+  const int nm = static_cast<int>(targets.markers.size());
+  const int nf = static_cast<int>(frames.size());
+  result.q.resize(nf, nq);
+  result.marker_error_m.resize(nf, nm);
+  result.objective.resize(nf);
+  result.total_squared_error_m2.resize(nf);
+  result.marker_rms_m.resize(nf);
+  result.marker_max_m.resize(nf);
+  result.worst_marker.assign(nf, -1);
+  for (const auto& m : targets.markers) result.marker_names.push_back(model.markers[m.model_marker].name);
+
+  KinematicsWorkspace<double> ws(model);
+  Eigen::VectorXd reference_row;
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < nf; ++i) {
+    if (progress && progress->cancelled()) throw std::runtime_error("inverse kinematics cancelled");
+    const int f = frames[i];
+    if (coordinate_reference) reference_row = reference_row_at(model, *coordinate_reference, targets, trial.time_s[f]);
+    cost->set_frame(&trial, f, coordinate_reference ? &reference_row : nullptr);
+    ceres::Solver::Summary s;
+    ceres::Solve(so, &problem, &s);
+    // Warm start: x keeps this frame's solution for the next.
+    for (std::size_t k = 0; k < free.size(); ++k) q[free[k]] = x[k];
+    result.summary.total_iterations += static_cast<int>(s.iterations.size()) - 1;
+    result.summary.max_iterations_in_a_frame =
+        std::max(result.summary.max_iterations_in_a_frame, static_cast<int>(s.iterations.size()) - 1);
+    if (s.termination_type != ceres::CONVERGENCE) ++result.summary.frames_not_converged;
+    result.q.row(i) = q.transpose();
+    result.objective[i] = 2.0 * s.final_cost;
+
+    forward_kinematics(model, q.data(), ws);
+    double sum2 = 0, worst = -1;
+    int present = 0;
+    for (int m = 0; m < nm; ++m) {
+      const auto measured = trial.position_m(f, targets.markers[m].trial_marker);
+      if (std::isnan(measured[0])) {
+        result.marker_error_m(i, m) = kNaN;
+        continue;
+      }
+      const double e = (marker_position(model, targets.markers[m].model_marker, ws) - measured).norm();
+      result.marker_error_m(i, m) = e;
+      sum2 += e * e;
+      ++present;
+      if (e > worst) {
+        worst = e;
+        result.worst_marker[i] = m;
+      }
+    }
+    result.time_s.push_back(trial.time_s[f]);
+    result.total_squared_error_m2[i] = sum2;
+    result.marker_rms_m[i] = present ? std::sqrt(sum2 / present) : kNaN;
+    result.marker_max_m[i] = present ? worst : kNaN;
+    if (progress) progress->report(double(i + 1) / nf, "inverse kinematics");
+  }
+  result.summary.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.summary.frames = nf;
+  result.summary.mean_marker_rms_m = result.marker_rms_m.mean();
+  result.summary.max_marker_rms_m = result.marker_rms_m.maxCoeff();
+  result.summary.max_marker_error_m = result.marker_max_m.maxCoeff();
+  if (result.summary.frames_not_converged)
+    result.summary.warnings.push_back(std::to_string(result.summary.frames_not_converged) +
+                                      " frames stopped before the solver's convergence tests were met");
+  return result;
+}
+
+std::string IkSummary::BriefReport() const {
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "IK: %d frames in %.3f s (%.0f frames/s), %d iterations (max %d in a frame), %d not converged; "
+                "marker RMS mean %.2f mm, max %.2f mm; largest marker error %.2f mm",
+                frames, solve_seconds, frames_per_second(), total_iterations, max_iterations_in_a_frame,
+                frames_not_converged, mean_marker_rms_m * 1e3, max_marker_rms_m * 1e3, max_marker_error_m * 1e3);
+  return buf;
+}
+
+Storage ik_coordinates_table(const Model& model, const IkResult& result, const std::string& name) {
+  Storage s;
+  s.name = name;
+  s.in_degrees = true;
+  s.extra_header = {"", "Units are S.I. units (second, meters, Newtons, ...)", "Angles are in degrees.", ""};
+  s.labels.push_back("time");
+  for (const auto& c : model.coordinates) s.labels.push_back(c.name);
+  s.data.resize(result.q.rows(), model.num_coordinates() + 1);
+  for (int i = 0; i < result.q.rows(); ++i) {
+    s.data(i, 0) = result.time_s[i];
+    for (int c = 0; c < model.num_coordinates(); ++c)
+      s.data(i, c + 1) = result.q(i, c) * (model.coordinates[c].is_angle() ? 180.0 / kPi : 1.0);
+  }
+  return s;
+}
+
+Storage ik_marker_errors_table(const IkResult& result) {
+  Storage s;
+  s.name = "Model Marker Errors from IK";
+  s.in_degrees = false;
+  s.labels = {"time", "total_squared_error", "marker_error_RMS", "marker_error_max"};
+  for (const auto& m : result.marker_names) s.labels.push_back(m);
+  const int nm = static_cast<int>(result.marker_names.size());
+  s.data.resize(result.q.rows(), 4 + nm);
+  for (int i = 0; i < result.q.rows(); ++i) {
+    s.data(i, 0) = result.time_s[i];
+    s.data(i, 1) = result.total_squared_error_m2[i];
+    s.data(i, 2) = result.marker_rms_m[i];
+    s.data(i, 3) = result.marker_max_m[i];
+    for (int m = 0; m < nm; ++m) s.data(i, 4 + m) = result.marker_error_m(i, m);
+  }
+  return s;
+}
+
+}  // namespace cpgait

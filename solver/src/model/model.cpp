@@ -1,0 +1,35 @@
+#include "cpgait/model/model.h"
+
+namespace cpgait {
+
+template <typename Container>
+static int find_named(const Container& c, std::string_view name) {
+  for (int i = 0; i < static_cast<int>(c.size()); ++i)
+    if (c[i].name == name) return i;
+  return -1;
+}
+
+int Model::body_index(std::string_view n) const { return find_named(bodies, n); }
+int Model::coordinate_index(std::string_view n) const { return find_named(coordinates, n); }
+int Model::marker_index(std::string_view n) const { return find_named(markers, n); }
+int Model::joint_index(std::string_view n) const { return find_named(joints, n); }
+
+Eigen::VectorXd Model::default_coordinates() const {
+  Eigen::VectorXd q(num_coordinates());
+  for (int i = 0; i < num_coordinates(); ++i) q[i] = coordinates[i].default_value;
+  return q;
+}
+
+double Model::total_mass_kg() const {
+  double m = 0;
+  for (const auto& b : bodies) m += b.mass_kg;
+  return m;
+}
+
+Eigen::Matrix3d rotation_from_body_xyz(const Eigen::Vector3d& a) {
+  return (Eigen::AngleAxisd(a.x(), Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(a.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(a.z(), Eigen::Vector3d::UnitZ()))
+      .toRotationMatrix();
+}
+
+}  // namespace cpgait
