@@ -116,7 +116,7 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   const double num_markers_header = number("nummarkers", true, 0);
   trial.orig_data_rate_hz = number("origdatarate", false, trial.data_rate_hz);
   trial.orig_data_start_frame = static_cast<int>(number("origdatastartframe", false, 1));
-  if (num_markers_header < 0 || num_markers_header > 100000 || num_frames_header < 0)
+  if (num_markers_header < 0 || num_markers_header > 100000 || num_frames_header < 0 || num_frames_header > 1e9)
     throw fail(2, "NumMarkers", "implausible NumMarkers/NumFrames");
   auto units_it = header.find("units");
   if (units_it == header.end()) throw fail(1, "Units", "missing header key (expected mm, cm or m)");
@@ -208,11 +208,12 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   }
   const int frames = trial.num_frames();
   if (frames == 0) throw fail(static_cast<int>(L.size()) - 1, "", "no data rows after the header");
-  if (frames < static_cast<int>(num_frames_header))
+  // Compared as doubles: a hostile header's NumFrames may not fit in an int.
+  if (frames < num_frames_header)
     throw fail(static_cast<int>(L.size()) - 1, "NumFrames",
                "file ends after " + std::to_string(frames) + " frames but the header says " +
                    std::to_string(static_cast<long long>(num_frames_header)) + " (truncated file?)");
-  if (frames > static_cast<int>(num_frames_header))
+  if (frames > num_frames_header)
     trial.warnings.push_back(name + ": NumFrames says " +
                              std::to_string(static_cast<long long>(num_frames_header)) + " but " +
                              std::to_string(frames) + " rows were read");

@@ -219,7 +219,7 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
   }
 
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.minimizer_progress_to_stdout = false;
   so.logging_type = ceres::SILENT;
   so.num_threads = 1;
@@ -247,6 +247,15 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
     const int f = frames[i];
     if (coordinate_reference) reference_row = reference_row_at(model, *coordinate_reference, targets, trial.time_s[f]);
     cost->set_frame(&trial, f, coordinate_reference ? &reference_row : nullptr);
+    // Warm start: extrapolate linearly from the two previous solutions (smooth motion), within bounds.
+    if (i >= 2) {
+      for (std::size_t k = 0; k < free.size(); ++k) {
+        double guess = 2.0 * result.q(i - 1, free[k]) - result.q(i - 2, free[k]);
+        const double lo = problem.GetParameterLowerBound(x.data(), static_cast<int>(k));
+        const double hi = problem.GetParameterUpperBound(x.data(), static_cast<int>(k));
+        x[k] = std::clamp(guess, lo, hi);
+      }
+    }
     ceres::Solver::Summary s;
     ceres::Solve(so, &problem, &s);
     // Warm start: x keeps this frame's solution for the next.

@@ -1,0 +1,136 @@
+// Issue acceptance: marker IK on OpenSim's gait2392 subject01 walk, against OpenSim's own results.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "cpgait/capture/ik_setup.h"
+#include "cpgait/capture/storage.h"
+#include "cpgait/capture/trc.h"
+#include "cpgait/ik/inverse_kinematics.h"
+#include "cpgait/model/osim_reader.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+namespace {
+
+struct Case {
+  Model model;
+  MarkerTrial trial;
+  IkSetup setup;
+  IkResult result;
+};
+
+const Case& solved() {
+  static const Case c = [] {
+    Case k;
+    k.model = read_osim(refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim")).model;
+    k.trial = read_trc(refdata::gait2392("pipeline/subject01_walk1.trc"));
+    k.setup = read_ik_setup(refdata::gait2392("pipeline/subject01_Setup_IK.xml"));
+    IkOptions o;
+    o.time_range_s = k.setup.time_range_s;
+    k.result = inverse_kinematics(k.model, k.trial, k.setup.tasks, o);
+    return k;
+  }();
+  return c;
+}
+
+// OpenSim's pose for a time, in internal units (the file is in degrees).
+Eigen::VectorXd reference_pose(const Model& m, const Storage& ref, double t) {
+  int row = -1;
+  for (int r = 0; r < ref.num_rows(); ++r)
+    if (std::abs(ref.time()[r] - t) < 1e-6) row = r;
+  EXPECT_GE(row, 0) << "no reference row at t=" << t;
+  Eigen::VectorXd q(m.num_coordinates());
+  for (int c = 0; c < m.num_coordinates(); ++c)
+    q[c] = ref.data(row, ref.column(m.coordinates[c].name)) * (m.coordinates[c].is_angle() ? M_PI / 180 : 1.0);
+  return q;
+}
+
+#define REQUIRE_GAIT2392()                                                              \
+  REQUIRE_REFERENCE(refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim")); \
+  REQUIRE_REFERENCE(refdata::gait2392("pipeline/OutputReference/subject01_walk1_ik.mot")); \
+  REQUIRE_REFERENCE(refdata::gait2392("pipeline/subject01_walk1.trc"));                    \
+  REQUIRE_REFERENCE(refdata::gait2392("pipeline/subject01_Setup_IK.xml"))
+
+}  // namespace
+
+// Acceptance 1: at every frame our weighted objective is at most that of OpenSim's reference pose
+// evaluated on our model (+0.1 %).
+TEST(IkGait2392, ObjectiveNoWorseThanOpenSimsPoseAtEveryFrame) {
+  REQUIRE_GAIT2392();
+  const Case& c = solved();
+  const Storage ref = read_storage(refdata::gait2392("pipeline/OutputReference/subject01_walk1_ik.mot"));
+  const IkTargets targets = make_ik_targets(c.model, c.trial, c.setup.tasks, {});
+  ASSERT_EQ(c.result.q.rows(), 121);
+  double ours_rms_sum = 0, theirs_rms_sum = 0, ours_rms_max = 0, theirs_rms_max = 0, worst_ratio = 0;
+  for (int i = 0; i < c.result.q.rows(); ++i) {
+    const double t = c.result.time_s[i];
+    int frame = -1;
+    for (int f = 0; f < c.trial.num_frames(); ++f)
+      if (c.trial.time_s[f] == t) frame = f;
+    const Eigen::VectorXd q_ref = reference_pose(c.model, ref, t);
+    const double theirs = ik_objective(c.model, targets, c.trial, frame, q_ref);
+    const double ours = ik_objective(c.model, targets, c.trial, frame, c.result.q.row(i).transpose());
+    EXPECT_NEAR(ours, c.result.objective[i], 1e-9 * ours);
+    EXPECT_LE(ours, theirs * 1.001) << "frame at t=" << t;
+    worst_ratio = std::max(worst_ratio, ours / theirs);
+    // Unweighted marker RMS of both poses, as OpenSim reports it.
+    IkTargets unweighted = targets;
+    for (auto& m : unweighted.markers) m.weight = 1;
+    unweighted.coordinates.clear();
+    const double n = static_cast<double>(targets.markers.size());
+    const double rms_theirs = std::sqrt(ik_objective(c.model, unweighted, c.trial, frame, q_ref) / n);
+    theirs_rms_sum += rms_theirs;
+    theirs_rms_max = std::max(theirs_rms_max, rms_theirs);
+    ours_rms_sum += c.result.marker_rms_m[i];
+    ours_rms_max = std::max(ours_rms_max, c.result.marker_rms_m[i]);
+  }
+  const int n = static_cast<int>(c.result.q.rows());
+  std::printf("[ info ] objective ours/OpenSim's: worst frame %.8f\n", worst_ratio);
+  std::printf("[ info ] marker RMS mm: ours mean %.3f max %.3f; OpenSim pose mean %.3f max %.3f\n",
+              1e3 * ours_rms_sum / n, 1e3 * ours_rms_max, 1e3 * theirs_rms_sum / n, 1e3 * theirs_rms_max);
+}
+
+// Acceptance 2: rotational coordinates within 1 deg RMS of OpenSim's reference, pelvis translations
+// within 2 mm RMS.
+TEST(IkGait2392, CoordinatesMatchOpenSimsReference) {
+  REQUIRE_GAIT2392();
+  const Case& c = solved();
+  const Storage ref = read_storage(refdata::gait2392("pipeline/OutputReference/subject01_walk1_ik.mot"));
+  for (int k = 0; k < c.model.num_coordinates(); ++k) {
+    const Coordinate& co = c.model.coordinates[k];
+    double sum2 = 0;
+    for (int i = 0; i < c.result.q.rows(); ++i) {
+      const double d = c.result.q(i, k) - reference_pose(c.model, ref, c.result.time_s[i])[k];
+      sum2 += d * d;
+    }
+    const double rms = std::sqrt(sum2 / c.result.q.rows());
+    if (co.is_angle()) {
+      EXPECT_LT(rms * 180 / M_PI, 1.0) << co.name;
+      std::printf("[ info ] %-18s RMS difference %.4f deg\n", co.name.c_str(), rms * 180 / M_PI);
+    } else {
+      EXPECT_LT(rms, 0.002) << co.name;
+      std::printf("[ info ] %-18s RMS difference %.4f mm\n", co.name.c_str(), rms * 1e3);
+    }
+  }
+}
+
+// OpenSim 4.1 run here on the same files wrote its per-frame marker errors: ours must be no larger
+// (same model, same weights; a better optimum can only lower the weighted sum, and the unweighted RMS
+// follows it closely).
+TEST(IkGait2392, MarkerErrorsMatchOpenSim41PerFrame) {
+  REQUIRE_GAIT2392();
+  const std::string path = refdata::shared_path("opensim41-here/IK/subject01_ik_marker_errors.sto");
+  REQUIRE_REFERENCE(path);
+  const Case& c = solved();
+  const Storage e = read_storage(path);
+  ASSERT_EQ(e.num_rows(), c.result.q.rows());
+  double worst = 0;
+  for (int i = 0; i < e.num_rows(); ++i) {
+    EXPECT_NEAR(e.time()[i], c.result.time_s[i], 1e-6);
+    worst = std::max(worst, std::abs(c.result.marker_rms_m[i] - e.data(i, e.column("marker_error_RMS"))));
+  }
+  EXPECT_LT(worst, 2e-4) << "per-frame marker RMS differs from OpenSim 4.1's by " << worst * 1e3 << " mm";
+  std::printf("[ info ] largest per-frame marker RMS difference vs OpenSim 4.1: %.4f mm\n", worst * 1e3);
+}

@@ -1,0 +1,89 @@
+// The cpgait executable end to end: subcommands write OpenSim files, bad input exits with a message.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+
+#include "cpgait/capture/storage.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+struct CliRun {
+  int status;
+  std::string output;
+};
+CliRun run(const std::string& args) {
+  const std::string cmd = std::string(CPGAIT_BINARY) + " " + args + " 2>&1";
+  CliRun r{0, ""};
+  FILE* p = popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf{};
+  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
+  const int s = pclose(p);
+  r.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+  return r;
+}
+std::string temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("cpgait_cli_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d.string();
+}
+}  // namespace
+
+TEST(Cli, HelpStatesInputsOutputsAndUnits) {
+  const CliRun r = run("--help");
+  EXPECT_EQ(r.status, 0);
+  for (const char* sub : {"ik", "run-tool", "demo", "model", "synth"}) EXPECT_NE(r.output.find(sub), std::string::npos) << sub;
+  const CliRun ik = run("ik --help");
+  EXPECT_NE(ik.output.find("degrees"), std::string::npos);
+  EXPECT_NE(ik.output.find("--markers"), std::string::npos);
+}
+
+TEST(Cli, SynthThenIkWritesOpenSimFiles) {
+  const std::string dir = temp_dir("ik");
+  const std::string model = cpgait::refdata::fixture("models/walker.osim");
+  ASSERT_EQ(run("synth --model " + model + " --duration 0.5 -o " + dir + "/t.trc").status, 0);
+  const CliRun r = run("ik --model " + model + " --markers " + dir + "/t.trc -o " + dir);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("frames/s"), std::string::npos);
+  const cpgait::Storage q = cpgait::read_storage(dir + "/t_ik.mot");
+  const cpgait::Storage truth = cpgait::read_storage(dir + "/t.trc.truth.mot");
+  ASSERT_EQ(q.num_rows(), truth.num_rows());
+  const int c = q.column("hip_flexion_r");
+  EXPECT_LT((q.data.col(c) - truth.data.col(truth.column("hip_flexion_r"))).cwiseAbs().maxCoeff(), 1e-3);  // degrees
+  EXPECT_TRUE(fs::exists(dir + "/t_ik_marker_errors.sto"));
+  fs::remove_all(dir);
+}
+
+TEST(Cli, BadInputExitsWithFileLineAndField) {
+  const std::string dir = temp_dir("bad");
+  {
+    std::FILE* f = std::fopen((dir + "/bad.trc").c_str(), "w");
+    std::fputs("PathFileType\t4\nDataRate\tNumFrames\tNumMarkers\tUnits\n60\t1\t1\tfurlongs\nFrame#\tTime\tA\n\n1\t0\t1\t2\t3\n", f);
+    std::fclose(f);
+  }
+  const CliRun r = run("ik --model " + cpgait::refdata::fixture("models/walker.osim") + " --markers " + dir + "/bad.trc -o " + dir);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("bad.trc:3: Units"), std::string::npos) << r.output;
+  const CliRun t = run("run-tool " + cpgait::refdata::fixture("models/walker.osim"));
+  EXPECT_EQ(t.status, 2);
+  EXPECT_NE(t.output.find("not supported"), std::string::npos) << t.output;
+  fs::remove_all(dir);
+}
+
+TEST(CliReference, RunToolRunsOpenSimsIkSetup) {
+  const std::string setup = cpgait::refdata::gait2392("pipeline/subject01_Setup_IK.xml");
+  REQUIRE_REFERENCE(setup);
+  const std::string dir = temp_dir("runtool");
+  const CliRun r = run("run-tool " + setup + " --results " + dir);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const cpgait::Storage q = cpgait::read_storage(dir + "/subject01_walk1_ik.mot");
+  EXPECT_EQ(q.num_rows(), 121);
+  EXPECT_EQ(q.num_columns(), 24);
+  const cpgait::Storage e = cpgait::read_storage(dir + "/subject01_ik_marker_errors.sto");
+  EXPECT_EQ(e.num_rows(), 121);
+  fs::remove_all(dir);
+}

@@ -1,0 +1,112 @@
+#include <gtest/gtest.h>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/ik/inverse_kinematics.h"
+#include "cpgait/model/osim_reader.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+namespace {
+const Model& walker() {
+  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  return m;
+}
+}  // namespace
+
+TEST(Ik, RecoversExactCoordinatesFromNoiseFreeMarkers) {
+  const auto synth = fixtures::synthesize_trial(walker(), {});
+  const IkResult r = inverse_kinematics(walker(), synth.markers, {});
+  ASSERT_EQ(r.q.rows(), synth.markers.num_frames());
+  const double err = (r.q - synth.q).cwiseAbs().maxCoeff();
+  EXPECT_LT(err, 1e-6) << "largest coordinate error (rad or m)";
+  EXPECT_LT(r.marker_max_m.maxCoeff(), 1e-7);
+  EXPECT_EQ(r.summary.frames_not_converged, 0);
+}
+
+TEST(Ik, SkipsMissingMarkersAndHoldsLockedCoordinates) {
+  fixtures::SyntheticTrialOptions o;
+  o.gap_fraction = 0.4;
+  const auto synth = fixtures::synthesize_trial(walker(), o);
+  ASSERT_FALSE(synth.markers.gaps().empty());
+  const IkResult r = inverse_kinematics(walker(), synth.markers, {});
+  EXPECT_LT((r.q - synth.q).cwiseAbs().maxCoeff(), 1e-5);
+  const int locked = walker().coordinate_index("lumbar_rotation");
+  EXPECT_EQ((r.q.col(locked).array() - walker().coordinates[locked].default_value).abs().maxCoeff(), 0.0);
+  // Missing markers show as NaN errors, not zeros.
+  bool saw_nan = false;
+  for (int i = 0; i < r.marker_error_m.size(); ++i) saw_nan |= std::isnan(r.marker_error_m.data()[i]);
+  EXPECT_TRUE(saw_nan);
+}
+
+TEST(Ik, ClampedCoordinatesStayInRange) {
+  // Push the trial's knee past its range by moving the ankle markers; the clamped knee must stop at
+  // its bound while the unclamped hips move freely.
+  auto synth = fixtures::synthesize_trial(walker(), {});
+  const int knee = walker().coordinate_index("knee_angle_r");
+  for (const char* name : {"R.Ankle.Lat", "R.Heel", "R.Midfoot", "R.Toe"}) {
+    const int m = synth.markers.marker_index(name);
+    for (int f = 0; f < synth.markers.num_frames(); ++f) synth.markers.position_m(f, m).x() += 0.5;
+  }
+  const IkResult r = inverse_kinematics(walker(), synth.markers, {});
+  EXPECT_LE(r.q.col(knee).maxCoeff(), walker().coordinates[knee].range_max + 1e-12);
+  EXPECT_GE(r.q.col(knee).minCoeff(), walker().coordinates[knee].range_min - 1e-12);
+  IkOptions free;
+  free.bounds = IkOptions::Bounds::kNone;
+  const IkResult u = inverse_kinematics(walker(), synth.markers, {}, free);
+  EXPECT_GT(u.q.col(knee).maxCoeff(), walker().coordinates[knee].range_max + 0.05);
+  // Bounds never lower the objective.
+  EXPECT_GE(r.objective.sum(), u.objective.sum() - 1e-9);
+}
+
+TEST(Ik, WeightsTimeRangeAndCoordinateTasks) {
+  const auto synth = fixtures::synthesize_trial(walker(), {});
+  IkTaskSet tasks;
+  for (const auto& m : walker().markers) tasks.markers.push_back({m.name, m.name == "R.Toe" ? 0.0 : 2.0, true});
+  tasks.markers.push_back({"Not.A.Marker", 1.0, true});
+  IkCoordinateTask ct;
+  ct.name = "hip_rotation_l";
+  ct.weight = 1e6;
+  ct.value_type = IkCoordinateTask::ValueType::kManualValue;
+  ct.value = 0.2;
+  tasks.coordinates.push_back(ct);
+  IkOptions o;
+  o.time_range_s = std::make_pair(0.5, 1.0);
+  const IkResult r = inverse_kinematics(walker(), synth.markers, tasks, o);
+  EXPECT_EQ(r.q.rows(), 51);
+  EXPECT_DOUBLE_EQ(r.time_s.front(), 0.5);
+  EXPECT_EQ(std::find(r.marker_names.begin(), r.marker_names.end(), "R.Toe"), r.marker_names.end());
+  const int hr = walker().coordinate_index("hip_rotation_l");
+  EXPECT_LT((r.q.col(hr).array() - 0.2).abs().maxCoeff(), 0.01);  // the heavy task wins
+  bool warned = false;
+  for (const auto& w : r.summary.warnings) warned |= w.find("Not.A.Marker") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+TEST(Ik, UnusableInputsAreClearErrors) {
+  auto synth = fixtures::synthesize_trial(walker(), {});
+  IkOptions o;
+  o.time_range_s = std::make_pair(10.0, 11.0);
+  EXPECT_THROW(inverse_kinematics(walker(), synth.markers, {}, o), InputError);
+  IkTaskSet tasks;
+  tasks.coordinates.push_back({"no_such_coordinate", 1.0, true, IkCoordinateTask::ValueType::kDefaultValue, 0});
+  EXPECT_THROW(inverse_kinematics(walker(), synth.markers, tasks), InputError);
+  for (auto& n : synth.markers.marker_names) n += "_x";
+  EXPECT_THROW(inverse_kinematics(walker(), synth.markers, {}), InputError);
+}
+
+TEST(Ik, TablesUseOpenSimUnitsAndNames) {
+  const auto synth = fixtures::synthesize_trial(walker(), {});
+  const IkResult r = inverse_kinematics(walker(), synth.markers, {});
+  const Storage q = ik_coordinates_table(walker(), r);
+  EXPECT_TRUE(q.in_degrees.value());
+  const int knee = walker().coordinate_index("knee_angle_r");
+  EXPECT_NEAR(q.data(3, q.column("knee_angle_r")), r.q(3, knee) * 180 / M_PI, 1e-12);
+  EXPECT_NEAR(q.data(3, q.column("pelvis_tx")), r.q(3, walker().coordinate_index("pelvis_tx")), 1e-15);
+  const Storage e = ik_marker_errors_table(r);
+  EXPECT_EQ(e.labels[1], "total_squared_error");
+  EXPECT_EQ(e.labels[2], "marker_error_RMS");
+  EXPECT_EQ(e.labels[3], "marker_error_max");
+  EXPECT_EQ(e.num_columns(), 4 + static_cast<int>(r.marker_names.size()));
+}
