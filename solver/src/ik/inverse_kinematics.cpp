@@ -219,6 +219,8 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
   }
 
   ceres::Solver::Options so;
+  // 121 x 23 for gait2392: the normal equations are well conditioned here and forming them is
+  // about 3x cheaper than QR (measured with cpgait_bench).
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.minimizer_progress_to_stdout = false;
   so.logging_type = ceres::SILENT;

@@ -24,9 +24,10 @@ struct IkOptions {
   Bounds bounds = Bounds::kClampedOnly;
   // Frames whose time lies in [first, last] (s); all frames when unset.
   std::optional<std::pair<double, double>> time_range_s;
-  // Ceres stopping rules. Tight by default: the objective is cheap, and an accurate optimum is
-  // what makes results comparable with OpenSim's.
-  double function_tolerance = 1e-12;
+  // Ceres stopping rules. Marker IK has non-zero residuals, so Levenberg-Marquardt converges only
+  // linearly near the optimum: a relative cost change of 1e-9 already gives the same coordinates as
+  // 1e-12 to 1e-4 deg on gait2392 (measured), with a third fewer iterations.
+  double function_tolerance = 1e-9;
   double gradient_tolerance = 1e-14;
   double parameter_tolerance = 1e-10;
   int max_iterations = 200;
