@@ -94,8 +94,8 @@ void add_ik_commands(CLI::App& app) {
                                 "Inverse kinematics: fit the model's coordinates to measured markers, frame by frame.\n"
                                 "Inputs: an .osim model, a .trc marker file (mm, cm or m), optional weights.\n"
                                 "Outputs in DIR: <name>_ik.mot (angles in degrees, translations in m) and\n"
-                                "<name>_ik_marker_errors.sto (per frame: total squared error m^2, RMS and max error m,\n"
-                                "then each tracked marker's error m).");
+                                "<name>_ik_marker_errors.sto (per frame: total squared error m^2, RMS and max error m, the\n"
+                                "worst marker's column position, then each tracked marker's error m).");
   struct IkArgs {
     std::string model, markers, setup, tasks, marker_set, out, name, bounds = "clamped";
     std::vector<double> time;

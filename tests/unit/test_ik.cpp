@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/ik_setup.h"
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/model/osim_reader.h"
@@ -108,5 +109,44 @@ TEST(Ik, TablesUseOpenSimUnitsAndNames) {
   EXPECT_EQ(e.labels[1], "total_squared_error");
   EXPECT_EQ(e.labels[2], "marker_error_RMS");
   EXPECT_EQ(e.labels[3], "marker_error_max");
-  EXPECT_EQ(e.num_columns(), 4 + static_cast<int>(r.marker_names.size()));
+  EXPECT_EQ(e.labels[4], "worst_marker");
+  EXPECT_EQ(e.num_columns(), 5 + static_cast<int>(r.marker_names.size()));
+  for (int i = 0; i < e.num_rows(); ++i) {
+    const int worst = static_cast<int>(e.data(i, 4));
+    ASSERT_GE(worst, 1);
+    EXPECT_DOUBLE_EQ(e.data(i, 4 + worst), e.data(i, 3));  // the named marker's error is the max
+  }
+}
+
+TEST(Ik, TaskFilesInJsonAndXml) {
+  const IkTaskSet j = parse_ik_tasks_json(R"({"markers": {"R.ASIS": 10, "Top.Head": {"weight": 0.1, "apply": false}},
+      "coordinates": {"subtalar_angle_r": {"weight": 1000, "value_type": "manual_value", "value": 0.1}}})",
+                                          "tasks.json");
+  ASSERT_EQ(j.markers.size(), 2u);
+  EXPECT_EQ(j.markers[0].name, "R.ASIS");
+  EXPECT_DOUBLE_EQ(j.markers[0].weight, 10);
+  EXPECT_FALSE(j.markers[1].apply);
+  ASSERT_EQ(j.coordinates.size(), 1u);
+  EXPECT_EQ(j.coordinates[0].value_type, IkCoordinateTask::ValueType::kManualValue);
+  EXPECT_DOUBLE_EQ(j.coordinates[0].value, 0.1);
+  EXPECT_THROW(parse_ik_tasks_json(R"({"coordinates": {"x": {"value_type": "guess"}}})", "t.json"), InputError);
+  EXPECT_THROW(parse_ik_tasks_json("[1, 2]", "t.json"), InputError);
+}
+
+TEST(IkReference, ReadsOpenSimsIkSetup) {
+  const std::string path = refdata::gait2392("pipeline/subject01_Setup_IK.xml");
+  REQUIRE_REFERENCE(path);
+  const IkSetup s = read_ik_setup(path);
+  EXPECT_EQ(s.name, "subject01");
+  EXPECT_EQ(s.model_file, "subject01_simbody.osim");
+  EXPECT_EQ(s.marker_file, "subject01_walk1.trc");
+  ASSERT_TRUE(s.time_range_s.has_value());
+  EXPECT_DOUBLE_EQ(s.time_range_s->first, 0.5);
+  EXPECT_DOUBLE_EQ(s.time_range_s->second, 2.5);
+  EXPECT_EQ(s.output_motion_file, "subject01_walk1_ik.mot");
+  EXPECT_EQ(s.tasks.coordinates.size(), 4u);
+  double head = -1;
+  for (const auto& t : s.tasks.markers)
+    if (t.name == "Top.Head") head = t.weight;
+  EXPECT_DOUBLE_EQ(head, 0.1);
 }

@@ -143,3 +143,57 @@ TEST(KinematicsReference, ReproducesOpenSimMarkerErrorsAtOpenSimsPoses) {
   std::printf("[ info ] at OpenSim 4.1's poses: marker RMS within %.2e m, max error within %.2e m of OpenSim's\n",
               worst_rms, worst_max);
 }
+
+// Every joint type the reader converts to a spatial transform, chained, with offset frames: the
+// converted axes must give the documented motions, and the Jacobian must match autodiff.
+TEST(Kinematics, AllJointTypesMoveAsOpenSimDefinesThem) {
+  const char* doc = R"(<OpenSimDocument Version="40000"><Model name="joints">
+  <Ground name="ground"/>
+  <BodySet><objects>
+   <Body name="a"><mass>1</mass><mass_center>0 0 0</mass_center><inertia>1 1 1 0 0 0</inertia></Body>
+   <Body name="b"><mass>1</mass></Body><Body name="c"><mass>1</mass></Body><Body name="d"><mass>1</mass></Body>
+   <Body name="e"><mass>1</mass></Body><Body name="f"><mass>1</mass></Body>
+  </objects></BodySet>
+  <JointSet><objects>
+   <FreeJoint name="free"><socket_parent_frame>/ground</socket_parent_frame><socket_child_frame>/bodyset/a</socket_child_frame>
+    <coordinates><Coordinate name="fx"/><Coordinate name="fy"/><Coordinate name="fz"/><Coordinate name="ftx"/><Coordinate name="fty"/><Coordinate name="ftz"/></coordinates></FreeJoint>
+   <BallJoint name="ball"><socket_parent_frame>a_off</socket_parent_frame><socket_child_frame>/bodyset/b</socket_child_frame>
+    <coordinates><Coordinate name="bx"/><Coordinate name="by"/><Coordinate name="bz"/></coordinates>
+    <frames><PhysicalOffsetFrame name="a_off"><socket_parent>/bodyset/a</socket_parent><translation>0 -0.3 0.1</translation><orientation>0.2 0 -0.1</orientation></PhysicalOffsetFrame></frames></BallJoint>
+   <SliderJoint name="slider"><socket_parent_frame>/bodyset/b</socket_parent_frame><socket_child_frame>/bodyset/c</socket_child_frame>
+    <coordinates><Coordinate name="s"/></coordinates></SliderJoint>
+   <UniversalJoint name="universal"><socket_parent_frame>/bodyset/c</socket_parent_frame><socket_child_frame>/bodyset/d</socket_child_frame>
+    <coordinates><Coordinate name="u1"/><Coordinate name="u2"/></coordinates></UniversalJoint>
+   <PlanarJoint name="planar"><socket_parent_frame>/bodyset/d</socket_parent_frame><socket_child_frame>/bodyset/e</socket_child_frame>
+    <coordinates><Coordinate name="pr"/><Coordinate name="px"/><Coordinate name="py"/></coordinates></PlanarJoint>
+   <WeldJoint name="weld"><socket_parent_frame>e_off</socket_parent_frame><socket_child_frame>/bodyset/f</socket_child_frame>
+    <frames><PhysicalOffsetFrame name="e_off"><socket_parent>/bodyset/e</socket_parent><translation>0.1 0 0</translation><orientation>0 0.3 0</orientation></PhysicalOffsetFrame></frames></WeldJoint>
+  </objects></JointSet>
+  <MarkerSet><objects>
+   <Marker name="ma"><socket_parent_frame>/bodyset/a</socket_parent_frame><location>0.1 0.2 0.3</location></Marker>
+   <Marker name="mb"><socket_parent_frame>/bodyset/b</socket_parent_frame><location>0 -0.2 0</location></Marker>
+   <Marker name="mf"><socket_parent_frame>/bodyset/f</socket_parent_frame><location>0.05 0.1 -0.2</location></Marker>
+  </objects></MarkerSet>
+ </Model></OpenSimDocument>)";
+  const OsimReadResult r = parse_osim(doc, "joints.osim");
+  const Model& m = r.model;
+  ASSERT_EQ(m.num_coordinates(), 15);
+  KinematicsWorkspace<double> ws(m);
+  // Free joint: body-fixed X-Y-Z rotations, translation in ground.
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(15);
+  q << 0.3, -0.2, 0.5, 1.0, 2.0, 3.0, 0, 0, 0, 0, 0, 0, 0, 0, 0;
+  forward_kinematics(m, q.data(), ws);
+  const Eigen::Matrix3d R = rotation_from_body_xyz(Eigen::Vector3d(0.3, -0.2, 0.5));
+  EXPECT_LT((marker_position(m, 0, ws) - (R * Eigen::Vector3d(0.1, 0.2, 0.3) + Eigen::Vector3d(1, 2, 3))).norm(), 1e-14);
+  // The slider moves along its parent's X axis: body b's, which at zero coordinates is turned by
+  // the ball joint's offset frame.
+  q.setZero();
+  q[9] = 0.25;  // s
+  forward_kinematics(m, q.data(), ws);
+  const Eigen::Vector3d f0 = marker_position(m, 2, ws);
+  q[9] = 0.0;
+  forward_kinematics(m, q.data(), ws);
+  const Eigen::Vector3d along = rotation_from_body_xyz(Eigen::Vector3d(0.2, 0, -0.1)) * Eigen::Vector3d(0.25, 0, 0);
+  EXPECT_LT((f0 - marker_position(m, 2, ws) - along).norm(), 1e-14);
+  check_jacobians(m, 10);
+}

@@ -146,3 +146,15 @@ TEST(OsimReference, ReadsGenericModelAndMarkerSetFile) {
   EXPECT_GE(r.model.markers.size(), 39u);
   EXPECT_GE(r.model.marker_index("R.ASIS"), 0);
 }
+
+TEST(OsimReference, ReadsMillardMuscles) {
+  const std::string path = refdata::gait2392("model/gait2392_millard2012muscle.osim");
+  REQUIRE_REFERENCE(path);
+  const OsimReadResult r = read_osim(path);
+  ASSERT_EQ(r.model.muscles.size(), 92u);
+  for (const auto& mu : r.model.muscles) {
+    EXPECT_EQ(mu.type, "Millard2012EquilibriumMuscle");
+    EXPECT_GT(mu.optimal_fiber_length_m, 0);
+    EXPECT_GT(mu.activation_time_constant_s, 0);
+  }
+}

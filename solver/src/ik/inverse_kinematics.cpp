@@ -334,16 +334,21 @@ Storage ik_marker_errors_table(const IkResult& result) {
   Storage s;
   s.name = "Model Marker Errors from IK";
   s.in_degrees = false;
-  s.labels = {"time", "total_squared_error", "marker_error_RMS", "marker_error_max"};
+  // STO cells are numbers, so the worst marker is given by position; OpenSim readers ignore the
+  // columns after its own three.
+  s.extra_header = {"Errors in metres. worst_marker: 1-based position of the frame's largest error among the",
+                    "marker columns that follow it (0 when no marker was seen)."};
+  s.labels = {"time", "total_squared_error", "marker_error_RMS", "marker_error_max", "worst_marker"};
   for (const auto& m : result.marker_names) s.labels.push_back(m);
   const int nm = static_cast<int>(result.marker_names.size());
-  s.data.resize(result.q.rows(), 4 + nm);
+  s.data.resize(result.q.rows(), 5 + nm);
   for (int i = 0; i < result.q.rows(); ++i) {
     s.data(i, 0) = result.time_s[i];
     s.data(i, 1) = result.total_squared_error_m2[i];
     s.data(i, 2) = result.marker_rms_m[i];
     s.data(i, 3) = result.marker_max_m[i];
-    for (int m = 0; m < nm; ++m) s.data(i, 4 + m) = result.marker_error_m(i, m);
+    s.data(i, 4) = result.worst_marker[i] + 1;
+    for (int m = 0; m < nm; ++m) s.data(i, 5 + m) = result.marker_error_m(i, m);
   }
   return s;
 }

@@ -94,7 +94,7 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
                             Progress* progress = nullptr);
 
 // OpenSim-format tables: coordinates (angles in degrees) and per-frame marker errors (OpenSim's four
-// columns, then one column per tracked marker, metres).
+// columns, worst_marker, then one column per tracked marker, metres).
 Storage ik_coordinates_table(const Model& model, const IkResult& result, const std::string& name = "Coordinates");
 Storage ik_marker_errors_table(const IkResult& result);
 
