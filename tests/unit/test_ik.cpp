@@ -150,3 +150,24 @@ TEST(IkReference, ReadsOpenSimsIkSetup) {
     if (t.name == "Top.Head") head = t.weight;
   EXPECT_DOUBLE_EQ(head, 0.1);
 }
+
+TEST(Ik, FromFileCoordinateTaskFollowsTheCoordinateFile) {
+  const auto synth = fixtures::synthesize_trial(walker(), {});
+  // A coordinate file (degrees, at half the trial's rate) asking hip_rotation_l to follow 5*sin(t).
+  Storage ref;
+  ref.in_degrees = true;
+  ref.labels = {"time", "hip_rotation_l"};
+  ref.data.resize(101, 2);
+  for (int r = 0; r <= 100; ++r) ref.data.row(r) << r * 0.02, 5.0 * std::sin(r * 0.02);
+  IkTaskSet tasks;
+  IkCoordinateTask ct;
+  ct.name = "hip_rotation_l";
+  ct.weight = 1e7;
+  ct.value_type = IkCoordinateTask::ValueType::kFromFile;
+  tasks.coordinates.push_back(ct);
+  const IkResult r = inverse_kinematics(walker(), synth.markers, tasks, {}, &ref);
+  const int c = walker().coordinate_index("hip_rotation_l");
+  for (int i = 0; i < r.q.rows(); i += 7)
+    EXPECT_NEAR(r.q(i, c) * 180 / M_PI, 5.0 * std::sin(r.time_s[i]), 0.02) << "t=" << r.time_s[i];
+  EXPECT_THROW(inverse_kinematics(walker(), synth.markers, tasks), InputError);  // no file given
+}
