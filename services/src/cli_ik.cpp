@@ -6,20 +6,16 @@
 #include "commands.h"
 #include "cpgait/capture/ik_setup.h"
 #include "cpgait/capture/input_error.h"
-#include "cpgait/capture/xml_document.h"
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/model/osim_reader.h"
 #include "output_files.h"
+#include "setup_files.h"
 
 namespace cpgait::services {
 namespace fs = std::filesystem;
 
 namespace {
-
-void print_warnings(const std::vector<std::string>& warnings) {
-  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-}
 
 IkOptions::Bounds parse_bounds(const std::string& s) {
   if (s == "clamped") return IkOptions::Bounds::kClampedOnly;
@@ -51,17 +47,7 @@ IkRun run_ik_and_write(const Model& model, const MarkerTrial& trial, const IkTas
   return run;
 }
 
-// A file named by a setup: relative to the setup's folder, as OpenSim resolves it. OpenSim's
-// published pipelines keep their models in OutputReference/ beside the setup, so that is tried next.
-std::string resolve_setup_file(const std::string& setup_dir, const std::string& name, const std::string& setup_path,
-                               const char* field) {
-  if (name.empty()) return name;
-  fs::path p(name);
-  if (p.is_absolute() && fs::exists(p)) return p.string();
-  for (const fs::path& candidate : {fs::path(setup_dir) / p, fs::path(setup_dir) / "OutputReference" / p})
-    if (fs::exists(candidate)) return candidate.lexically_normal().string();
-  throw InputError(setup_path, 0, field, "file '" + name + "' not found beside the setup");
-}
+}  // namespace
 
 void run_ik_setup(const std::string& setup_path, const std::string& results_override, const std::string& bounds) {
   const IkSetup s = read_ik_setup(setup_path);
@@ -85,8 +71,6 @@ void run_ik_setup(const std::string& setup_path, const std::string& results_over
   run_ik_and_write(mr.model, trial, s.tasks, options, have_reference ? &reference : nullptr, out_dir, motion,
                    name + "_ik_marker_errors.sto", s.report_errors);
 }
-
-}  // namespace
 
 void add_ik_commands(CLI::App& app) {
   // ---- ik
@@ -134,27 +118,6 @@ void add_ik_commands(CLI::App& app) {
     const std::string name = a->name.empty() ? fs::path(a->markers).stem().string() : a->name;
     run_ik_and_write(mr.model, trial, tasks, options, nullptr, a->out, name + "_ik.mot", name + "_ik_marker_errors.sto",
                      true);
-  });
-
-  // ---- run-tool
-  auto* rt = app.add_subcommand("run-tool",
-                                "Run an OpenSim tool setup file as OpenSim would: files resolved relative to the setup,\n"
-                                "results where the setup says (or in --results). Supported: InverseKinematicsTool.");
-  struct RtArgs {
-    std::string setup, results, bounds = "clamped";
-  };
-  auto r = std::make_shared<RtArgs>();
-  rt->add_option("setup", r->setup, "the tool's setup .xml")->required()->check(CLI::ExistingFile);
-  rt->add_option("--results", r->results, "write results here instead of the setup's results_directory");
-  rt->add_option("--bounds", r->bounds, "IK coordinate bounds: clamped, all, none")
-      ->check(CLI::IsMember({"clamped", "all", "none"}));
-  rt->callback([r] {
-    const auto d = xml::Document::load_file(r->setup);
-    auto root = d.doc().document_element();
-    if (std::string(root.name()) == "OpenSimDocument") root = root.first_child();
-    const std::string tool = root.name();
-    if (tool == "InverseKinematicsTool") return run_ik_setup(r->setup, r->results, r->bounds);
-    throw InputError(r->setup, d.line_of(root), tool, "this tool is not supported yet (supported: InverseKinematicsTool)");
   });
 
   // ---- demo

@@ -1,10 +1,17 @@
 #pragma once
 // Each CLI subcommand registers itself on the app; main() only parses and reports errors.
 #include <CLI/CLI.hpp>
+#include <string>
 
 namespace cpgait::services {
 
-void add_ik_commands(CLI::App& app);     // ik, run-tool, demo
-void add_model_commands(CLI::App& app);  // model, synth
+void add_ik_commands(CLI::App& app);        // ik, demo
+void add_dynamics_commands(CLI::App& app);  // id
+void add_model_commands(CLI::App& app);     // model, synth
+void add_run_tool_command(CLI::App& app);   // run-tool: dispatches on the setup's tool
+
+// Runners for OpenSim setups; results go to results_override when it is not empty.
+void run_ik_setup(const std::string& setup_path, const std::string& results_override, const std::string& bounds);
+void run_id_setup(const std::string& setup_path, const std::string& results_override);
 
 }  // namespace cpgait::services

@@ -46,4 +46,3 @@ static void BM_IkWalkerSynthetic(benchmark::State& state) {
 }
 BENCHMARK(BM_IkWalkerSynthetic)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
-BENCHMARK_MAIN();

@@ -10,7 +10,7 @@ double scalar_value(const T& x) {
   if constexpr (std::is_arithmetic_v<T>) {
     return static_cast<double>(x);
   } else {
-    return x.a;  // ceres::Jet
+    return scalar_value(x.a);  // ceres::Jet, possibly nested (hyper-dual numbers)
   }
 }
 

@@ -148,31 +148,6 @@ int Function::interval(double x) const {
   return std::clamp(i, 0, static_cast<int>(x_.size()) - 2);
 }
 
-double Function::derivative(double x) const {
-  switch (kind_) {
-    case Kind::kConstant:
-      return 0.0;
-    case Kind::kLinear:
-      return scale_ * c_[0];
-    case Kind::kPolynomial: {
-      double r = 0.0;
-      const int deg = static_cast<int>(c_.size()) - 1;
-      for (int k = 0; k < deg; ++k) r = r * x + c_[k] * (deg - k);
-      return scale_ * r;
-    }
-    case Kind::kPiecewiseLinear:
-    case Kind::kCubicSpline: {
-      const int n = static_cast<int>(x_.size());
-      if (x < x_[0]) return scale_ * b_[0];
-      if (x > x_[n - 1]) return scale_ * b_[n - 1];
-      const int i = interval(x);
-      const double dx = x - x_[i];
-      return scale_ * (b_[i] + dx * (2.0 * cc_[i] + 3.0 * dx * d_[i]));
-    }
-  }
-  return 0.0;
-}
-
 double Function::second_derivative(double x) const {
   switch (kind_) {
     case Kind::kConstant:

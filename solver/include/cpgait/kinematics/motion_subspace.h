@@ -2,7 +2,8 @@
 // Each coordinate's motion subspace in ground: the spatial velocity (angular; linear velocity of the
 // point at the ground origin) that a unit rate of that coordinate gives its joint's child, with the
 // joint's coupled functions (knee translations, ...) differentiated through. A point p fixed on a
-// descendant body moves with dp/dq_c = omega_c x p + v_c. Inverse dynamics and the IK Jacobian
+// descendant body moves with dp/dq_c = omega_c x p + v_c. Evaluated on a Jet whose dual part is
+// qdot, it also gives dS/dt exactly, which inverse dynamics needs. The IK Jacobian and the dynamics
 // share it.
 #include <Eigen/Core>
 #include <vector>
@@ -11,13 +12,47 @@
 
 namespace cpgait {
 
-struct MotionSubspace {
-  Eigen::Matrix<double, 6, Eigen::Dynamic> columns;  // rows 0-2 omega_G, rows 3-5 v_G at ground origin
-  explicit MotionSubspace(const Model& m) : columns(6, m.num_coordinates()) {}
+template <typename T>
+struct MotionSubspaceT {
+  Eigen::Matrix<T, 6, Eigen::Dynamic> columns;  // rows 0-2 omega_G, rows 3-5 v_G at ground origin
+  explicit MotionSubspaceT(const Model& m) : columns(6, m.num_coordinates()) {}
 };
+using MotionSubspace = MotionSubspaceT<double>;
 
 // Needs ws from forward_kinematics at the same q.
-void motion_subspace(const Model& model, const double* q, const KinematicsWorkspace<double>& ws, MotionSubspace& S);
+template <typename T>
+void motion_subspace(const Model& model, const T* q, const KinematicsWorkspace<T>& ws, MotionSubspaceT<T>& S) {
+  using M3 = Eigen::Matrix<T, 3, 3>;
+  using V3 = Eigen::Matrix<T, 3, 1>;
+  S.columns.setZero();
+  for (const Joint& j : model.joints) {
+    const auto& P = ws.body_in_ground[j.parent_body];
+    const M3 R_GF = P.rotation * j.parent_offset.rotation.cast<T>();
+    const V3 p_GF = P.rotation * j.parent_offset.translation_m.cast<T>() + P.translation_m;
+    V3 translation_F = V3::Zero();
+    for (int s = 3; s < 6; ++s) translation_F += j.axes[s].axis.cast<T>() * axis_value(j.axes[s], q);
+    const V3 origin_M_G = R_GF * translation_F + p_GF;
+    // Rotation s turns about its axis expressed in the frame left by rotations 1..s-1.
+    M3 R_partial = M3::Identity();
+    for (int s = 0; s < 3; ++s) {
+      const TransformAxis& ax = j.axes[s];
+      if (ax.coordinate >= 0) {
+        const V3 w = R_GF * (R_partial * ax.axis.cast<T>()) * ax.function.derivative(q[ax.coordinate]);
+        S.columns.col(ax.coordinate).template head<3>() += w;
+        // Rotating about an axis through M's origin: the ground-origin point moves with -w x o_M.
+        S.columns.col(ax.coordinate).template tail<3>() += -w.cross(origin_M_G);
+      }
+      if (ax.coordinate >= 0 || ax.function.value(0.0) != 0.0)
+        R_partial = (R_partial * axis_rotation(ax.axis, axis_value(ax, q))).eval();
+    }
+    for (int s = 3; s < 6; ++s) {
+      const TransformAxis& ax = j.axes[s];
+      if (ax.coordinate < 0) continue;
+      S.columns.col(ax.coordinate).template tail<3>() +=
+          R_GF * ax.axis.cast<T>() * ax.function.derivative(q[ax.coordinate]);
+    }
+  }
+}
 
 // Coordinates that move `body`, root first.
 std::vector<int> ancestor_coordinates(const Model& model, int body);

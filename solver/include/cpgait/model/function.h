@@ -32,7 +32,8 @@ class Function {
 
   template <typename T>
   T value(const T& x) const;
-  double derivative(double x) const;
+  template <typename T>
+  T derivative(const T& x) const;
   double second_derivative(double x) const;
 
  private:
@@ -67,6 +68,33 @@ T Function::value(const T& x) const {
       const int i = interval(xv);
       const T dx = x - x_[i];
       return scale_ * (y_[i] + dx * (b_[i] + dx * (cc_[i] + dx * d_[i])));
+    }
+  }
+  return T(0.0);
+}
+
+template <typename T>
+T Function::derivative(const T& x) const {
+  switch (kind_) {
+    case Kind::kConstant:
+      return T(0.0);
+    case Kind::kLinear:
+      return T(scale_ * c_[0]);
+    case Kind::kPolynomial: {
+      T r(0.0);
+      const int deg = static_cast<int>(c_.size()) - 1;
+      for (int k = 0; k < deg; ++k) r = r * x + c_[k] * (deg - k);
+      return scale_ * r;
+    }
+    case Kind::kPiecewiseLinear:
+    case Kind::kCubicSpline: {
+      const double xv = scalar_value(x);
+      const int n = static_cast<int>(x_.size());
+      if (xv < x_[0]) return T(scale_ * b_[0]);
+      if (xv > x_[n - 1]) return T(scale_ * b_[n - 1]);
+      const int i = interval(xv);
+      const T dx = x - x_[i];
+      return scale_ * (b_[i] + dx * (2.0 * cc_[i] + 3.0 * d_[i] * dx));
     }
   }
   return T(0.0);

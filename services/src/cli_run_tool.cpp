@@ -1,0 +1,33 @@
+// run-tool: runs an OpenSim tool setup file as OpenSim would.
+#include "commands.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/xml_document.h"
+
+namespace cpgait::services {
+
+void add_run_tool_command(CLI::App& app) {
+  auto* rt = app.add_subcommand("run-tool",
+                                "Run an OpenSim tool setup file as OpenSim would: files resolved relative to the setup,\n"
+                                "results where the setup says (or in --results).\n"
+                                "Supported: InverseKinematicsTool, InverseDynamicsTool.");
+  struct Args {
+    std::string setup, results, bounds = "clamped";
+  };
+  auto a = std::make_shared<Args>();
+  rt->add_option("setup", a->setup, "the tool's setup .xml")->required()->check(CLI::ExistingFile);
+  rt->add_option("--results", a->results, "write results here instead of the setup's results_directory");
+  rt->add_option("--bounds", a->bounds, "IK coordinate bounds: clamped, all, none")
+      ->check(CLI::IsMember({"clamped", "all", "none"}));
+  rt->callback([a] {
+    const auto d = xml::Document::load_file(a->setup);
+    auto root = d.doc().document_element();
+    if (std::string(root.name()) == "OpenSimDocument") root = root.first_child();
+    const std::string tool = root.name();
+    if (tool == "InverseKinematicsTool") return run_ik_setup(a->setup, a->results, a->bounds);
+    if (tool == "InverseDynamicsTool") return run_id_setup(a->setup, a->results);
+    throw InputError(a->setup, d.line_of(root), tool,
+                     "this tool is not supported yet (supported: InverseKinematicsTool, InverseDynamicsTool)");
+  });
+}
+
+}  // namespace cpgait::services

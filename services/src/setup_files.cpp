@@ -1,0 +1,25 @@
+#include "setup_files.h"
+
+#include <cstdio>
+#include <filesystem>
+
+#include "cpgait/capture/input_error.h"
+
+namespace cpgait::services {
+namespace fs = std::filesystem;
+
+std::string resolve_setup_file(const std::string& setup_dir, const std::string& name, const std::string& setup_path,
+                               const char* field) {
+  if (name.empty()) return name;
+  const fs::path p(name);
+  if (p.is_absolute() && fs::exists(p)) return p.string();
+  for (const fs::path& candidate : {fs::path(setup_dir) / p, fs::path(setup_dir) / "OutputReference" / p})
+    if (fs::exists(candidate)) return candidate.lexically_normal().string();
+  throw InputError(setup_path, 0, field, "file '" + name + "' not found beside the setup");
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+}
+
+}  // namespace cpgait::services

@@ -1,0 +1,60 @@
+#pragma once
+// The inverse dynamics stage, as OpenSim's ID tool: coordinates from a .mot/.sto, optionally
+// low-pass filtered, differentiated, then RNEA with external loads at each sample in the range.
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cpgait/capture/storage.h"
+#include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/model/model.h"
+#include "cpgait/progress.h"
+
+namespace cpgait {
+
+struct InverseDynamicsOptions {
+  // Low-pass cutoff for the coordinates (Hz); negative: no filtering (OpenSim's default). Filtering
+  // is OpenSim's: pad by half the length with an odd reflection, then a zero-phase third-order
+  // Butterworth (sixth order overall).
+  double lowpass_cutoff_hz = -1;
+  // Samples whose time lies in [first, last] (s); all when unset.
+  std::optional<std::pair<double, double>> time_range_s;
+  // How to read a coordinates file that does not say inDegrees: old SIMM motion files are degrees.
+  bool assume_degrees_when_unspecified = true;
+};
+
+// Coordinate trajectories sampled at a table's times: values, speeds and accelerations in
+// internal units (rad, m). Speeds and accelerations are the derivatives of an interpolating cubic
+// spline (Forsythe-Malcolm-Moler) through the (filtered) samples.
+struct CoordinateTrajectories {
+  std::vector<double> time_s;
+  Eigen::MatrixXd q, qd, qdd;  // samples x coordinates
+  std::vector<std::string> warnings;
+};
+CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage& coordinates,
+                                               const InverseDynamicsOptions& options);
+
+struct InverseDynamicsSummary {
+  int frames = 0;
+  double solve_seconds = 0;
+  std::vector<std::string> warnings;
+  double frames_per_second() const { return solve_seconds > 0 ? frames / solve_seconds : 0; }
+  std::string BriefReport() const;
+};
+
+struct InverseDynamicsResult {
+  std::vector<double> time_s;
+  Eigen::MatrixXd generalized_forces;  // samples x coordinates: N m for angles, N for translations
+  CoordinateTrajectories kinematics;   // what the forces were computed from
+  InverseDynamicsSummary summary;
+};
+
+InverseDynamicsResult inverse_dynamics(const Model& model, const Storage& coordinates, const AppliedLoads* loads,
+                                       const InverseDynamicsOptions& options = {}, Progress* progress = nullptr);
+
+// OpenSim's output: columns <coordinate>_moment (angles) or <coordinate>_force (translations).
+Storage inverse_dynamics_table(const Model& model, const InverseDynamicsResult& result);
+
+}  // namespace cpgait

@@ -1,0 +1,40 @@
+#pragma once
+// Recursive Newton-Euler inverse dynamics: tau = M(q) qdd + C(q, qd) + G(q) - J^T f_ext.
+// Spatial quantities are in ground at the ground origin (Featherstone's fixed-frame form), so the
+// knee's spline-coupled translations need no special case: each coordinate's motion subspace S and
+// its rate dS/dt come from the coordinate functions (motion_subspace on a Jet carrying qd).
+#include <ceres/jet.h>
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "cpgait/kinematics/motion_subspace.h"
+
+namespace cpgait {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+// A spatial force on a body, in ground: rows 0-2 moment about the ground origin (N m), rows 3-5 force (N).
+inline Vector6d spatial_force(const Eigen::Vector3d& force_N, const Eigen::Vector3d& point_G_m,
+                              const Eigen::Vector3d& torque_Nm = Eigen::Vector3d::Zero()) {
+  Vector6d f;
+  f << torque_Nm + point_G_m.cross(force_N), force_N;
+  return f;
+}
+
+struct DynamicsWorkspace {
+  using Jet = ceres::Jet<double, 1>;
+  std::vector<Jet> q_jet;
+  KinematicsWorkspace<Jet> kinematics;
+  MotionSubspaceT<Jet> S;
+  std::vector<Vector6d> velocity, acceleration, force;  // per body
+  explicit DynamicsWorkspace(const Model& m)
+      : q_jet(m.num_coordinates()), kinematics(m), S(m), velocity(m.bodies.size()), acceleration(m.bodies.size()),
+        force(m.bodies.size()) {}
+};
+
+// external[b]: spatial force applied to body b (empty vector: none). tau has num_coordinates().
+void rnea(const Model& model, const double* q, const double* qd, const double* qdd,
+          const std::vector<Vector6d>& external, DynamicsWorkspace& ws, double* tau);
+
+}  // namespace cpgait

@@ -1,0 +1,70 @@
+#include "cpgait/dynamics/applied_loads.h"
+
+#include <algorithm>
+
+#include "cpgait/capture/input_error.h"
+
+namespace cpgait {
+
+AppliedLoads::AppliedLoads(const Model& model, const ExternalLoadsSpec& spec, const Storage& data) : data_(data) {
+  if (data.num_rows() < 1) throw InputError(spec.file, 0, "datafile", "the load data file has no rows");
+  auto body = [&](const ExternalForceSpec& e, const std::string& name, const char* field) {
+    const int b = name == "ground" ? 0 : model.body_index(name);
+    if (b < 0) throw InputError(spec.file, e.line, field, "body '" + name + "' is not in the model");
+    return b;
+  };
+  auto columns = [&](const ExternalForceSpec& e, const std::string& prefix, const char* field) {
+    if (prefix.empty()) return -1;
+    const int c = data.column(prefix + "x");
+    if (c < 0 || data.column(prefix + "y") != c + 1 || data.column(prefix + "z") != c + 2)
+      throw InputError(spec.file, e.line, field,
+                       "the data file has no adjacent columns " + prefix + "x, " + prefix + "y, " + prefix + "z");
+    return c;
+  };
+  for (const auto& e : spec.forces) {
+    forces_.push_back({body(e, e.applied_to_body, "applied_to_body"),
+                       body(e, e.force_expressed_in_body, "force_expressed_in_body"),
+                       body(e, e.point_expressed_in_body, "point_expressed_in_body"),
+                       columns(e, e.force_identifier, "force_identifier"),
+                       columns(e, e.point_identifier, "point_identifier"),
+                       columns(e, e.torque_identifier, "torque_identifier")});
+  }
+}
+
+double AppliedLoads::start_time_s() const { return data_.time()[0]; }
+double AppliedLoads::end_time_s() const { return data_.time()[data_.num_rows() - 1]; }
+
+void AppliedLoads::wrenches_at(double t, const KinematicsWorkspace<double>& kin, std::vector<Vector6d>& out) const {
+  for (auto& w : out) w.setZero();
+  const auto time = data_.time();
+  const int n = data_.num_rows();
+  // Linear interpolation; held at the end values outside the data.
+  const int hi = static_cast<int>(std::upper_bound(time.data(), time.data() + n, t) - time.data());
+  const int i1 = std::clamp(hi, 0, n - 1), i0 = std::clamp(hi - 1, 0, n - 1);
+  const double span = time[i1] - time[i0];
+  const double a = span > 0 ? std::clamp((t - time[i0]) / span, 0.0, 1.0) : 0.0;
+  auto vec = [&](int col) {
+    Eigen::Vector3d v;
+    for (int k = 0; k < 3; ++k) v[k] = (1 - a) * data_.data(i0, col + k) + a * data_.data(i1, col + k);
+    return v;
+  };
+  for (const Force& f : forces_) {
+    const auto& B = kin.body_in_ground[f.body];
+    Eigen::Vector3d force = vec(f.force_col);
+    if (f.force_frame != 0) force = kin.body_in_ground[f.force_frame].rotation * force;
+    Eigen::Vector3d point = B.translation_m;  // body origin when no point is given
+    if (f.point_col >= 0) {
+      point = vec(f.point_col);
+      if (f.point_frame != 0) {
+        const auto& P = kin.body_in_ground[f.point_frame];
+        point = P.rotation * point + P.translation_m;
+      }
+    }
+    // Free torques are expressed like the force.
+    Eigen::Vector3d torque = f.torque_col >= 0 ? vec(f.torque_col) : Eigen::Vector3d::Zero();
+    if (f.torque_col >= 0 && f.force_frame != 0) torque = kin.body_in_ground[f.force_frame].rotation * torque;
+    out[f.body] += spatial_force(force, point, torque);
+  }
+}
+
+}  // namespace cpgait

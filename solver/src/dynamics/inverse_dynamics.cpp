@@ -1,0 +1,145 @@
+#include "cpgait/dynamics/inverse_dynamics.h"
+
+#include <chrono>
+#include <cstdio>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/model/function.h"
+#include "cpgait/signal/lowpass.h"
+
+namespace cpgait {
+namespace {
+
+// A column for a coordinate: its bare name, or OpenSim 4's full path "/jointset/j/name/value".
+int coordinate_column(const Storage& s, const std::string& name) {
+  const int c = s.column(name);
+  if (c >= 0) return c;
+  const std::string suffix = "/" + name + "/value";
+  for (int i = 0; i < s.num_columns(); ++i)
+    if (s.labels[i].size() > suffix.size() && s.labels[i].compare(s.labels[i].size() - suffix.size(), suffix.size(), suffix) == 0)
+      return i;
+  return -1;
+}
+
+}  // namespace
+
+CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage& coords,
+                                               const InverseDynamicsOptions& options) {
+  CoordinateTrajectories out;
+  const int n = coords.num_rows(), nq = model.num_coordinates();
+  if (n < 4) throw InputError(coords.name, 0, "nRows", "a coordinates file needs at least 4 rows to differentiate");
+  bool degrees = options.assume_degrees_when_unspecified;
+  if (coords.in_degrees) degrees = *coords.in_degrees;
+  else out.warnings.push_back("the coordinates file does not say inDegrees; read as " + std::string(degrees ? "degrees" : "radians"));
+  Eigen::VectorXd time = coords.time();
+  const double dt = (time[n - 1] - time[0]) / (n - 1);
+  for (int i = 1; i < n; ++i)
+    if (std::abs(time[i] - time[i - 1] - dt) > 1e-3 * dt + 1e-6)
+      throw InputError(coords.name, 0, "time", "samples are not evenly spaced (needed for filtering and differentiation)");
+
+  std::vector<int> rows;
+  for (int i = 0; i < n; ++i) {
+    const double t = time[i];
+    if (options.time_range_s && (t < options.time_range_s->first - 1e-6 || t > options.time_range_s->second + 1e-6)) continue;
+    rows.push_back(i);
+  }
+  if (rows.empty()) throw InputError(coords.name, 0, "time_range", "no sample lies in the requested time range");
+  // OpenSim evaluates its padded (reflected) data outside the samples; cpgait reports only times it
+  // has data for, and says so.
+  if (options.time_range_s && (options.time_range_s->first < time[0] - 1e-6 || options.time_range_s->second > time[n - 1] + 1e-6)) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "the requested time range %.4g-%.4g s extends past the coordinates (%.4g-%.4g s); computed where there is data",
+                  options.time_range_s->first, options.time_range_s->second, time[0], time[n - 1]);
+    out.warnings.emplace_back(buf);
+  }
+  const int m = static_cast<int>(rows.size());
+  out.q.resize(m, nq);
+  out.qd.resize(m, nq);
+  out.qdd.resize(m, nq);
+  for (int r : rows) out.time_s.push_back(time[r]);
+
+  // Padding keeps the filter's start-up transient and the spline's end effects out of the data.
+  const int pad = options.lowpass_cutoff_hz >= 0 ? n / 2 : 0;
+  Eigen::VectorXd padded_time(n + 2 * pad);
+  for (int i = 0; i < n + 2 * pad; ++i) padded_time[i] = time[0] + (i - pad) * dt;
+  const std::vector<double> knots(padded_time.data(), padded_time.data() + padded_time.size());
+  for (int c = 0; c < nq; ++c) {
+    const Coordinate& co = model.coordinates[c];
+    const int col = coordinate_column(coords, co.name);
+    if (col < 0) {
+      out.warnings.push_back("coordinate '" + co.name + "' is not in the coordinates file; held at its default");
+      out.q.col(c).setConstant(co.default_value);
+      out.qd.col(c).setZero();
+      out.qdd.col(c).setZero();
+      continue;
+    }
+    Eigen::VectorXd x = coords.data.col(col);
+    if (degrees && co.is_angle()) x *= M_PI / 180.0;
+    if (options.lowpass_cutoff_hz >= 0) x = lowpass_butterworth3_zero_phase(pad_odd_reflection(x, pad), dt, options.lowpass_cutoff_hz);
+    const Function spline = Function::simm_spline(knots, std::vector<double>(x.data(), x.data() + x.size()));
+    for (int k = 0; k < m; ++k) {
+      const double t = out.time_s[k];
+      out.q(k, c) = spline.value(t);
+      out.qd(k, c) = spline.derivative(t);
+      out.qdd(k, c) = spline.second_derivative(t);
+    }
+  }
+  return out;
+}
+
+InverseDynamicsResult inverse_dynamics(const Model& model, const Storage& coordinates, const AppliedLoads* loads,
+                                       const InverseDynamicsOptions& options, Progress* progress) {
+  InverseDynamicsResult result;
+  result.kinematics = coordinate_trajectories(model, coordinates, options);
+  result.summary.warnings = result.kinematics.warnings;
+  const auto& k = result.kinematics;
+  const int m = static_cast<int>(k.time_s.size()), nq = model.num_coordinates();
+  if (loads && (k.time_s.front() < loads->start_time_s() - 1e-6 || k.time_s.back() > loads->end_time_s() + 1e-6))
+    result.summary.warnings.push_back("the load data does not cover the whole time range; end values are held");
+  result.time_s = k.time_s;
+  result.generalized_forces.resize(m, nq);
+  DynamicsWorkspace ws(model);
+  KinematicsWorkspace<double> kin(model);
+  std::vector<Vector6d> external(loads ? model.bodies.size() : 0);
+  Eigen::VectorXd q(nq), qd(nq), qdd(nq), tau(nq);
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < m; ++i) {
+    if (progress && progress->cancelled()) throw std::runtime_error("inverse dynamics cancelled");
+    q = k.q.row(i).transpose();
+    qd = k.qd.row(i).transpose();
+    qdd = k.qdd.row(i).transpose();
+    if (loads) {
+      forward_kinematics(model, q.data(), kin);
+      loads->wrenches_at(k.time_s[i], kin, external);
+    }
+    rnea(model, q.data(), qd.data(), qdd.data(), external, ws, tau.data());
+    result.generalized_forces.row(i) = tau.transpose();
+    if (progress) progress->report(double(i + 1) / m, "inverse dynamics");
+  }
+  result.summary.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.summary.frames = m;
+  return result;
+}
+
+std::string InverseDynamicsSummary::BriefReport() const {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "ID: %d frames in %.4f s (%.0f frames/s)", frames, solve_seconds, frames_per_second());
+  return buf;
+}
+
+Storage inverse_dynamics_table(const Model& model, const InverseDynamicsResult& result) {
+  Storage s;
+  s.name = "Inverse Dynamics";
+  s.in_degrees = false;
+  s.labels.push_back("time");
+  for (const auto& c : model.coordinates) s.labels.push_back(c.name + (c.is_angle() ? "_moment" : "_force"));
+  const int m = static_cast<int>(result.time_s.size());
+  s.data.resize(m, model.num_coordinates() + 1);
+  for (int i = 0; i < m; ++i) {
+    s.data(i, 0) = result.time_s[i];
+    s.data.row(i).tail(model.num_coordinates()) = result.generalized_forces.row(i);
+  }
+  return s;
+}
+
+}  // namespace cpgait

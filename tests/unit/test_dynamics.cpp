@@ -1,0 +1,229 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/dynamics/rnea.h"
+#include "cpgait/model/osim_reader.h"
+#include "cpgait/signal/lowpass.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+namespace {
+
+const Model& walker() {
+  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  return m;
+}
+
+// Energies computed independently of RNEA: body velocities from the motion subspace.
+double kinetic_energy(const Model& m, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+  KinematicsWorkspace<double> ws(m);
+  MotionSubspace S(m);
+  forward_kinematics(m, q.data(), ws);
+  motion_subspace(m, q.data(), ws, S);
+  double T = 0;
+  for (std::size_t b = 1; b < m.bodies.size(); ++b) {
+    Vector6d V = Vector6d::Zero();
+    for (int c : ancestor_coordinates(m, static_cast<int>(b))) V += S.columns.col(c) * qd[c];
+    const auto& X = ws.body_in_ground[b];
+    const Eigen::Vector3d c = X.rotation * m.bodies[b].com_m + X.translation_m;
+    const Eigen::Vector3d w = V.head<3>(), v = V.tail<3>() + w.cross(c);
+    T += 0.5 * m.bodies[b].mass_kg * v.squaredNorm() +
+         0.5 * w.dot(X.rotation * m.bodies[b].inertia_kg_m2 * X.rotation.transpose() * w);
+  }
+  return T;
+}
+
+double potential_energy(const Model& m, const Eigen::VectorXd& q) {
+  KinematicsWorkspace<double> ws(m);
+  forward_kinematics(m, q.data(), ws);
+  double V = 0;
+  for (std::size_t b = 1; b < m.bodies.size(); ++b) {
+    const auto& X = ws.body_in_ground[b];
+    V -= m.bodies[b].mass_kg * m.gravity_m_s2.dot(X.rotation * m.bodies[b].com_m + X.translation_m);
+  }
+  return V;
+}
+
+Eigen::VectorXd random_vector(int n, std::mt19937& rng, double scale) {
+  Eigen::VectorXd v(n);
+  for (int i = 0; i < n; ++i) v[i] = std::uniform_real_distribution<double>(-scale, scale)(rng);
+  return v;
+}
+
+Eigen::VectorXd rnea_tau(const Model& m, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& qdd,
+                         const std::vector<Vector6d>& ext = {}) {
+  DynamicsWorkspace ws(m);
+  Eigen::VectorXd tau(m.num_coordinates());
+  rnea(m, q.data(), qd.data(), qdd.data(), ext, ws, tau.data());
+  return tau;
+}
+
+}  // namespace
+
+// tau = d/dt dT/dqd - dT/dq + dV/dq, by finite differences of the energies: checks velocities,
+// accelerations (including dS/dt of the knee's coupled translations), inertia and gravity at once.
+TEST(Rnea, MatchesLagrangesEquations) {
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::VectorXd q = random_vector(n, rng, 0.6), qd = random_vector(n, rng, 2.0), qdd = random_vector(n, rng, 5.0);
+    const Eigen::VectorXd tau = rnea_tau(m, q, qd, qdd);
+    auto dT_dqd = [&](const Eigen::VectorXd& qq, const Eigen::VectorXd& vv) {
+      Eigen::VectorXd g(n);
+      for (int c = 0; c < n; ++c) {
+        Eigen::VectorXd a = vv, b = vv;
+        a[c] += 1e-3;
+        b[c] -= 1e-3;
+        g[c] = (kinetic_energy(m, qq, a) - kinetic_energy(m, qq, b)) / 2e-3;  // T is quadratic in qd
+      }
+      return g;
+    };
+    const double h = 1e-5;
+    const Eigen::VectorXd ddt = (dT_dqd(q + qd * h + 0.5 * qdd * h * h, qd + qdd * h) -
+                                 dT_dqd(q - qd * h + 0.5 * qdd * h * h, qd - qdd * h)) / (2 * h);
+    Eigen::VectorXd expected(n);
+    for (int c = 0; c < n; ++c) {
+      Eigen::VectorXd a = q, b = q;
+      a[c] += 1e-6;
+      b[c] -= 1e-6;
+      expected[c] = ddt[c] - (kinetic_energy(m, a, qd) - kinetic_energy(m, b, qd)) / 2e-6 +
+                    (potential_energy(m, a) - potential_energy(m, b)) / 2e-6;
+    }
+    for (int c = 0; c < n; ++c)
+      EXPECT_NEAR(tau[c], expected[c], 1e-4 * (1 + std::abs(expected[c]))) << m.coordinates[c].name;
+  }
+}
+
+TEST(Rnea, StaticPoseBalancesGravityExactly) {
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  std::mt19937 rng(5);
+  const Eigen::VectorXd q = random_vector(n, rng, 0.5), zero = Eigen::VectorXd::Zero(n);
+  const Eigen::VectorXd tau = rnea_tau(m, q, zero, zero);
+  // The vertical pelvis force carries the whole weight.
+  EXPECT_NEAR(tau[m.coordinate_index("pelvis_ty")], -m.total_mass_kg() * m.gravity_m_s2.y(), 1e-9);
+  for (int c = 0; c < n; ++c) {
+    Eigen::VectorXd a = q, b = q;
+    a[c] += 1e-6;
+    b[c] -= 1e-6;
+    EXPECT_NEAR(tau[c], (potential_energy(m, a) - potential_energy(m, b)) / 2e-6, 1e-5) << m.coordinates[c].name;
+  }
+}
+
+TEST(Rnea, ExternalForceEqualsJacobianTranspose) {
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  std::mt19937 rng(9);
+  const Eigen::VectorXd q = random_vector(n, rng, 0.5), zero = Eigen::VectorXd::Zero(n);
+  const int heel = m.marker_index("R.Heel");
+  KinematicsWorkspace<double> ws(m);
+  MotionSubspace S(m);
+  forward_kinematics(m, q.data(), ws);
+  motion_subspace(m, q.data(), ws, S);
+  const Eigen::Vector3d p = marker_position(m, heel, ws), F(30, 700, -20), torque(1, 2, 3);
+  std::vector<Vector6d> ext(m.bodies.size(), Vector6d::Zero());
+  ext[m.markers[heel].body] = spatial_force(F, p, torque);
+  const Eigen::VectorXd diff = rnea_tau(m, q, zero, zero) - rnea_tau(m, q, zero, zero, ext);
+  const auto anc = ancestor_coordinates(m, m.markers[heel].body);
+  for (int c = 0; c < n; ++c) {
+    const bool moves = std::find(anc.begin(), anc.end(), c) != anc.end();
+    const Eigen::Vector3d w = S.columns.col(c).head<3>(), dp = w.cross(p) + S.columns.col(c).tail<3>();
+    EXPECT_NEAR(diff[c], moves ? F.dot(dp) + torque.dot(w) : 0.0, 1e-9) << m.coordinates[c].name;
+  }
+}
+
+TEST(Lowpass, ButterworthGainAndZeroPhase) {
+  const double dt = 0.01, fc = 6.0;
+  const int n = 2000;
+  auto sine = [&](double f) {
+    Eigen::VectorXd x(n);
+    for (int i = 0; i < n; ++i) x[i] = std::sin(2 * M_PI * f * i * dt);
+    return x;
+  };
+  // Forward-backward: |H(fc)|^2 = 1/2 at the cutoff, ~1 well below, ~0 well above; no phase shift.
+  const Eigen::VectorXd at = lowpass_butterworth3_zero_phase(sine(fc), dt, fc);
+  const Eigen::VectorXd low = lowpass_butterworth3_zero_phase(sine(0.5), dt, fc);
+  const Eigen::VectorXd high = lowpass_butterworth3_zero_phase(sine(30), dt, fc);
+  const auto mid = Eigen::seqN(n / 4, n / 2);
+  EXPECT_NEAR(at(mid).cwiseAbs().maxCoeff(), 0.5, 0.01);
+  EXPECT_NEAR(low(mid).cwiseAbs().maxCoeff(), 1.0, 1e-3);
+  EXPECT_LT(high(mid).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_LT((low - sine(0.5))(mid).cwiseAbs().maxCoeff(), 1e-3);  // zero phase
+  const Eigen::VectorXd padded = pad_odd_reflection(Eigen::VectorXd::LinSpaced(10, 0, 9), 4);
+  EXPECT_EQ(padded.size(), 18);
+  EXPECT_DOUBLE_EQ(padded[0], -4);   // the reflection keeps the slope
+  EXPECT_DOUBLE_EQ(padded[17], 13);
+}
+
+TEST(InverseDynamics, RecoversTorquesOfASyntheticMotion) {
+  // Coordinates sampled from known smooth functions: ID's derivatives and forces must match RNEA on
+  // the exact q, qd, qdd away from the ends.
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  Storage coords;
+  coords.in_degrees = false;
+  coords.labels.push_back("time");
+  for (const auto& c : m.coordinates) coords.labels.push_back(c.name);
+  const int rows = 201;
+  const double dt = 0.005;
+  coords.data.resize(rows, n + 1);
+  auto qf = [&](double t, int c, int d) {  // d-th derivative of 0.3 sin(w t + c)
+    const double w = 2.0 + 0.1 * c;
+    const double s = std::sin(w * t + c), co = std::cos(w * t + c);
+    return d == 0 ? 0.3 * s : d == 1 ? 0.3 * w * co : -0.3 * w * w * s;
+  };
+  for (int r = 0; r < rows; ++r) {
+    coords.data(r, 0) = r * dt;
+    for (int c = 0; c < n; ++c) coords.data(r, c + 1) = qf(r * dt, c, 0);
+  }
+  InverseDynamicsOptions o;
+  o.time_range_s = std::make_pair(0.2, 0.8);
+  const InverseDynamicsResult r = inverse_dynamics(m, coords, nullptr, o);
+  ASSERT_EQ(r.time_s.size(), 121u);
+  double worst = 0;
+  for (std::size_t i = 0; i < r.time_s.size(); ++i) {
+    Eigen::VectorXd q(n), qd(n), qdd(n);
+    for (int c = 0; c < n; ++c) q[c] = qf(r.time_s[i], c, 0), qd[c] = qf(r.time_s[i], c, 1), qdd[c] = qf(r.time_s[i], c, 2);
+    worst = std::max(worst, (rnea_tau(m, q, qd, qdd).transpose() - r.generalized_forces.row(i)).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 0.05) << "N m or N";  // spline derivatives of 200 Hz samples
+  const Storage table = inverse_dynamics_table(m, r);
+  EXPECT_EQ(table.labels[m.coordinate_index("pelvis_tx") + 1], "pelvis_tx_force");
+  EXPECT_EQ(table.labels[m.coordinate_index("knee_angle_r") + 1], "knee_angle_r_moment");
+}
+
+TEST(ExternalLoads, UnknownBodyOrColumnNamesTheXmlLine) {
+  const std::string dir = ::testing::TempDir();
+  const std::string xml = dir + "/loads.xml";
+  {
+    std::FILE* f = std::fopen(xml.c_str(), "w");
+    std::fputs("<OpenSimDocument Version=\"40000\"><ExternalLoads name=\"x\"><objects>\n"
+               "<ExternalForce name=\"a\"><applied_to_body>foot_r</applied_to_body><force_identifier>f_v</force_identifier>"
+               "<point_identifier>f_p</point_identifier></ExternalForce>\n"
+               "<ExternalForce name=\"b\"><applied_to_body>wing</applied_to_body><force_identifier>f_v</force_identifier></ExternalForce>\n"
+               "</objects><datafile>grf.mot</datafile></ExternalLoads></OpenSimDocument>\n", f);
+    std::fclose(f);
+  }
+  const ExternalLoadsSpec spec = read_external_loads(xml);
+  ASSERT_EQ(spec.forces.size(), 2u);
+  Storage data;
+  data.labels = {"time", "f_vx", "f_vy", "f_vz", "f_px", "f_py", "f_pz"};
+  data.data = Eigen::MatrixXd::Zero(3, 7);
+  try {
+    AppliedLoads(walker(), spec, data);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 3);
+    EXPECT_EQ(e.field(), "applied_to_body");
+  }
+  ExternalLoadsSpec one = spec;
+  one.forces.pop_back();
+  data.labels[5] = "f_qy";
+  EXPECT_THROW(AppliedLoads(walker(), one, data), InputError);
+}
