@@ -31,19 +31,20 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
   bool degrees = options.assume_degrees_when_unspecified;
   if (coords.in_degrees) degrees = *coords.in_degrees;
   else out.warnings.push_back("the coordinates file does not say inDegrees; read as " + std::string(degrees ? "degrees" : "radians"));
-  Eigen::VectorXd time = coords.time();
+  const Eigen::VectorXd time = coords.time();
+  const std::vector<double> sample_times(time.data(), time.data() + n);
   const double dt = (time[n - 1] - time[0]) / (n - 1);
-  for (int i = 1; i < n; ++i)
-    if (std::abs(time[i] - time[i - 1] - dt) > 1e-3 * dt + 1e-6)
-      throw InputError(coords.name, 0, "time", "samples are not evenly spaced (needed for filtering and differentiation)");
+  bool uniform = true;
+  for (int i = 1; i < n; ++i) uniform = uniform && std::abs(time[i] - time[i - 1] - dt) <= 1e-3 * dt + 1e-9;
+  if (!uniform)
+    out.warnings.push_back("sample times are unevenly spaced; resampled at their mean interval before differentiating");
 
-  std::vector<int> rows;
-  for (int i = 0; i < n; ++i) {
-    const double t = time[i];
-    if (options.time_range_s && (t < options.time_range_s->first - 1e-6 || t > options.time_range_s->second + 1e-6)) continue;
-    rows.push_back(i);
-  }
-  if (rows.empty()) throw InputError(coords.name, 0, "time_range", "no sample lies in the requested time range");
+  // Times to report: requested ones, or the samples, within the time range and the data.
+  const double t_first = options.time_range_s ? options.time_range_s->first : time[0];
+  const double t_last = options.time_range_s ? options.time_range_s->second : time[n - 1];
+  for (double t : options.output_times_s.empty() ? sample_times : options.output_times_s)
+    if (t >= t_first - 1e-6 && t <= t_last + 1e-6 && t >= time[0] - 1e-9 && t <= time[n - 1] + 1e-9) out.time_s.push_back(t);
+  if (out.time_s.empty()) throw InputError(coords.name, 0, "time_range", "no sample lies in the requested time range");
   // OpenSim evaluates its padded (reflected) data outside the samples; cpgait reports only times it
   // has data for, and says so.
   if (options.time_range_s && (options.time_range_s->first < time[0] - 1e-6 || options.time_range_s->second > time[n - 1] + 1e-6)) {
@@ -52,17 +53,15 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
                   options.time_range_s->first, options.time_range_s->second, time[0], time[n - 1]);
     out.warnings.emplace_back(buf);
   }
-  const int m = static_cast<int>(rows.size());
+  const int m = static_cast<int>(out.time_s.size());
   out.q.resize(m, nq);
   out.qd.resize(m, nq);
   out.qdd.resize(m, nq);
-  for (int r : rows) out.time_s.push_back(time[r]);
 
   // Padding keeps the filter's start-up transient and the spline's end effects out of the data.
   const int pad = options.lowpass_cutoff_hz >= 0 ? n / 2 : 0;
-  Eigen::VectorXd padded_time(n + 2 * pad);
-  for (int i = 0; i < n + 2 * pad; ++i) padded_time[i] = time[0] + (i - pad) * dt;
-  const std::vector<double> knots(padded_time.data(), padded_time.data() + padded_time.size());
+  std::vector<double> knots(n + 2 * pad);
+  for (int i = 0; i < n + 2 * pad; ++i) knots[i] = time[0] + (i - pad) * dt;
   for (int c = 0; c < nq; ++c) {
     const Coordinate& co = model.coordinates[c];
     const int col = coordinate_column(coords, co.name);
@@ -75,6 +74,10 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
     }
     Eigen::VectorXd x = coords.data.col(col);
     if (degrees && co.is_angle()) x *= M_PI / 180.0;
+    if (!uniform) {
+      const Function raw = Function::simm_spline(sample_times, std::vector<double>(x.data(), x.data() + n));
+      for (int i = 0; i < n; ++i) x[i] = raw.value(knots[pad + i]);
+    }
     if (options.lowpass_cutoff_hz >= 0) x = lowpass_butterworth3_zero_phase(pad_odd_reflection(x, pad), dt, options.lowpass_cutoff_hz);
     const Function spline = Function::simm_spline(knots, std::vector<double>(x.data(), x.data() + x.size()));
     for (int k = 0; k < m; ++k) {

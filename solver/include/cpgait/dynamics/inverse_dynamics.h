@@ -23,11 +23,15 @@ struct InverseDynamicsOptions {
   std::optional<std::pair<double, double>> time_range_s;
   // How to read a coordinates file that does not say inDegrees: old SIMM motion files are degrees.
   bool assume_degrees_when_unspecified = true;
+  // Times to report (s), inside the data; the coordinates' own sample times when empty.
+  std::vector<double> output_times_s;
 };
 
-// Coordinate trajectories sampled at a table's times: values, speeds and accelerations in
-// internal units (rad, m). Speeds and accelerations are the derivatives of an interpolating cubic
-// spline (Forsythe-Malcolm-Moler) through the (filtered) samples.
+// Coordinate trajectories at a table's sample times (or the requested output times): values, speeds
+// and accelerations in internal units (rad, m). Unevenly spaced samples (times rounded in the file)
+// are first resampled onto an even grid, as OpenSim does before filtering. Speeds and accelerations
+// are the derivatives of an interpolating cubic spline (Forsythe-Malcolm-Moler) through the
+// (filtered) samples.
 struct CoordinateTrajectories {
   std::vector<double> time_s;
   Eigen::MatrixXd q, qd, qdd;  // samples x coordinates
