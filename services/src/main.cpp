@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "cpgait 0.1.0");
   cpgait::services::add_ik_commands(app);
   cpgait::services::add_dynamics_commands(app);
+  cpgait::services::add_activation_commands(app);
   cpgait::services::add_model_commands(app);
   cpgait::services::add_run_tool_command(app);
   try {

@@ -87,3 +87,32 @@ TEST(CliReference, RunToolRunsOpenSimsIkSetup) {
   EXPECT_EQ(e.num_rows(), 121);
   fs::remove_all(dir);
 }
+
+TEST(CliReference, IdAndSoFromTheCommandLine) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  REQUIRE_REFERENCE(pl + "subject01_walk1_grf.mot");
+  const std::string dir = temp_dir("idso");
+  const std::string model = pl + "OutputReference/subject01_simbody.osim";
+  CliRun id = run("id --model " + model + " --coordinates " + pl + "subject01_walk1_ik.mot --loads " + pl +
+                  "subject01_walk1_grf.xml --cutoff 6 --time 0.5 1.0 -o " + dir + "/id.sto");
+  ASSERT_EQ(id.status, 0) << id.output;
+  const cpgait::Storage t = cpgait::read_storage(dir + "/id.sto");
+  EXPECT_EQ(t.num_rows(), 31);
+  EXPECT_GE(t.column("hip_flexion_r_moment"), 1);
+  CliRun so = run("so --model " + model + " --coordinates " + pl + "subject01_walk1_ik.mot --loads " + pl +
+                  "subject01_walk1_grf.xml --actuators " + pl + "gait2392_SO_weak_Residual_Actuators.xml --cutoff 6 --time 0.5 0.7 --name walk -o " + dir);
+  ASSERT_EQ(so.status, 0) << so.output;
+  const cpgait::Storage a = cpgait::read_storage(dir + "/walk_StaticOptimization_activation.sto");
+  EXPECT_EQ(a.num_rows(), 13);
+  EXPECT_EQ(a.num_columns(), 1 + 92 + 6);
+  EXPECT_TRUE(fs::exists(dir + "/walk_StaticOptimization_force.sto"));
+  // run-tool with OpenSim's ID setup writes where asked, named as the setup says.
+  CliRun rt = run("run-tool " + pl + "subject01_Setup_InverseDynamics.xml --results " + dir);
+  ASSERT_EQ(rt.status, 0) << rt.output;
+  EXPECT_TRUE(fs::exists(dir + "/InverseDynamicsOutput.sto"));
+  // The pipeline's old PrescribedForce loads are refused with the file and line.
+  CliRun old = run("run-tool " + pl + "setup_static_optimization.xml --results " + dir);
+  EXPECT_EQ(old.status, 2);
+  EXPECT_NE(old.output.find("foot_floor_loads.xml:"), std::string::npos) << old.output;
+  fs::remove_all(dir);
+}

@@ -30,7 +30,7 @@ Eigen::Matrix<T, 3, 1> path_point_location(const PathPoint& p, const T* q) {
 }
 
 template <typename T>
-T path_length(const Model& model, const Muscle& muscle, const T* q, const KinematicsWorkspace<T>& ws) {
+T path_length(const Muscle& muscle, const T* q, const KinematicsWorkspace<T>& ws) {
   using std::sqrt;
   T length(0.0);
   bool have_previous = false;

@@ -1,0 +1,32 @@
+#pragma once
+// OpenSim's AnalyzeTool setup with a StaticOptimization analysis. Paths as written; `setup_dir` is
+// what they are relative to.
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace cpgait {
+
+struct AnalyzeSetup {
+  std::string name;
+  std::string setup_dir;
+  std::string model_file;
+  std::vector<std::string> force_set_files;
+  bool replace_force_set = false;
+  std::string results_directory = ".";
+  std::string coordinates_file;
+  std::string external_loads_file;
+  double lowpass_cutoff_hz = -1;
+  std::optional<std::pair<double, double>> time_range_s;  // initial_time, final_time
+  // The StaticOptimization analysis (absent when the setup has none).
+  bool has_static_optimization = false;
+  int step_interval = 1;
+  double activation_exponent = 2.0;
+  bool use_muscle_physiology = true;
+  bool use_model_force_set = true;
+};
+
+AnalyzeSetup read_analyze_setup(const std::string& path);
+
+}  // namespace cpgait

@@ -1,0 +1,111 @@
+// Issue acceptance: static optimization against OpenSim's results.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+
+#include "cpgait/activation/static_optimization.h"
+#include "cpgait/model/osim_reader.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+namespace {
+
+struct Comparison {
+  std::vector<std::pair<double, std::string>> muscles;  // RMS, name (reference peak > 0.05)
+  std::vector<std::string> residual_lines;
+};
+
+Comparison compare(const Model& m, const StaticOptimizationResult& r, const Storage& ref_act, const Storage& ref_force) {
+  Comparison c;
+  const int nm = static_cast<int>(m.muscles.size());
+  for (std::size_t j = 0; j < r.names.size(); ++j) {
+    const int col = ref_act.column(r.names[j]);
+    EXPECT_GE(col, 0) << r.names[j];
+    if (col < 0) continue;
+    double sum2 = 0, peak = 0, ours_mean = 0, theirs_mean = 0;
+    int n = 0;
+    for (std::size_t i = 0; i < r.time_s.size(); ++i)
+      for (int k = 0; k < ref_act.num_rows(); ++k)
+        if (std::abs(ref_act.time()[k] - r.time_s[i]) < 1e-6) {
+          sum2 += std::pow(r.controls(i, j) - ref_act.data(k, col), 2);
+          peak = std::max(peak, std::abs(ref_act.data(k, col)));
+          ours_mean += std::abs(r.forces(i, j));
+          theirs_mean += std::abs(ref_force.data(k, ref_force.column(r.names[j])));
+          ++n;
+        }
+    EXPECT_GT(n, 80);
+    if (static_cast<int>(j) < nm) {
+      if (peak > 0.05) c.muscles.push_back({std::sqrt(sum2 / n), r.names[j]});
+    } else {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "%-4s mean |force| ours %7.2f, OpenSim %7.2f; control RMS difference %.3f", r.names[j].c_str(),
+                    ours_mean / n, theirs_mean / n, std::sqrt(sum2 / n));
+      c.residual_lines.push_back(buf);
+    }
+  }
+  std::sort(c.muscles.rbegin(), c.muscles.rend());
+  return c;
+}
+
+void print(const Comparison& c, const char* who) {
+  for (std::size_t i = 0; i < std::min<std::size_t>(5, c.muscles.size()); ++i)
+    std::printf("[ info ] vs %s: worst %zu: %-14s activation RMS difference %.4f\n", who, i + 1, c.muscles[i].second.c_str(),
+                c.muscles[i].first);
+  for (const auto& l : c.residual_lines) std::printf("[ info ] vs %s: residual %s\n", who, l.c_str());
+}
+
+}  // namespace
+
+// OpenSim 4.1 ran static optimization here on files we have (its IK, 6 Hz, the pipeline's GRF,
+// weak residuals): the same problem, so the activations must agree within 0.03 RMS for every muscle
+// active above 0.05, at OpenSim's own frame times.
+TEST(SoGait2392, MatchesOpenSim41OnTheSameInputs) {
+  const std::string pl = refdata::gait2392("pipeline/");
+  const std::string act = refdata::shared_path("opensim41-here/SO/subject01_walk1_StaticOptimization_activation.sto");
+  const std::string frc = refdata::shared_path("opensim41-here/SO/subject01_walk1_StaticOptimization_force.sto");
+  const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
+  for (const auto& p : {pl + "subject01_walk1_grf.mot", act, frc, ik}) REQUIRE_REFERENCE(p);
+  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
+  const ResolvedActuators acts(m, read_actuators(pl + "gait2392_SO_weak_Residual_Actuators.xml"));
+  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  const Storage ref = read_storage(act);
+  StaticOptimizationOptions o;
+  o.lowpass_cutoff_hz = 6;
+  for (int k = 0; k < ref.num_rows(); ++k) o.output_times_s.push_back(ref.time()[k]);
+  const StaticOptimizationResult r = static_optimization(m, read_storage(ik), &loads, acts, o);
+  // OpenSim's first frame (0.492 s) lies before the data; it evaluates padding there, cpgait does not.
+  EXPECT_EQ(r.time_s.size(), static_cast<std::size_t>(ref.num_rows() - 1));
+  EXPECT_LT(r.summary.max_equality_violation, 1e-3) << "N m";
+  const Comparison c = compare(m, r, ref, read_storage(frc));
+  ASSERT_GT(c.muscles.size(), 40u);
+  for (const auto& [rms, name] : c.muscles) EXPECT_LT(rms, 0.03) << name;
+  print(c, "OpenSim 4.1");
+  std::printf("[ info ] %s\n", r.summary.BriefReport().c_str());
+}
+
+// The tutorial's published results. Its ExternalLoads file names a GRF data file that is not
+// shipped with it (and applies the left foot's free torque to the right foot); the pipeline's GRF,
+// which the guide gives as the same loads, is used here. The moment equality must hold at every
+// frame; the activation differences are reported (see the issue note for why they are larger).
+TEST(SoGait2392, TutorialMomentEqualityAndReport) {
+  const std::string so = refdata::gait2392("so_tutorial/"), pl = refdata::gait2392("pipeline/");
+  const std::string act = so + "OutputReference/ResultsStaticOptimization/subject01_StaticOptimization_activation.sto";
+  const std::string frc = so + "OutputReference/ResultsStaticOptimization/subject01_StaticOptimization_force.sto";
+  for (const auto& p : {act, frc, so + "subject01_walk1_Kinematics.sto", pl + "subject01_walk1_grf.mot"}) REQUIRE_REFERENCE(p);
+  const Model m = read_osim(so + "subject01_simbody_adjusted_StaticOp.osim").model;
+  const ResolvedActuators acts(m, read_actuators(so + "gait2392_SO_weak_Residual_Actuators.xml"));
+  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  StaticOptimizationOptions o;
+  o.step_interval = 10;
+  o.time_range_s = std::make_pair(0.5, 1.999);
+  const StaticOptimizationResult r = static_optimization(m, read_storage(so + "subject01_walk1_Kinematics.sto"), &loads, acts, o);
+  EXPECT_EQ(r.time_s.size(), 150u);
+  EXPECT_LT(r.summary.max_equality_violation, 1e-3) << "N m";
+  const Comparison c = compare(m, r, read_storage(act), read_storage(frc));
+  int within = 0;
+  for (const auto& [rms, name] : c.muscles) within += rms < 0.03;
+  std::printf("[ info ] tutorial: %d of %zu muscles (reference peak > 0.05) within 0.03 RMS\n", within, c.muscles.size());
+  print(c, "OpenSim tutorial");
+}

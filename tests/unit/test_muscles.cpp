@@ -1,0 +1,147 @@
+#include <ceres/jet.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/muscle_path.h"
+#include "cpgait/muscles/thelen2003.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+namespace {
+
+Eigen::VectorXd random_pose(const Model& m, std::mt19937& rng) {
+  Eigen::VectorXd q(m.num_coordinates());
+  for (int c = 0; c < m.num_coordinates(); ++c) {
+    const auto& co = m.coordinates[c];
+    q[c] = std::uniform_real_distribution<double>(std::max(co.range_min, -2.0), std::min(co.range_max, 2.0))(rng);
+  }
+  return q;
+}
+
+// Moment arms three ways: analytic (motion subspace), forward-mode autodiff through path_length,
+// and central differences of the path length. Half the poses put a conditional point's coordinate
+// just inside or just outside its range, where the path changes.
+void check_moment_arms(const Model& m, int poses) {
+  constexpr int N = 32;
+  using Jet = ceres::Jet<double, N>;
+  ASSERT_LE(m.num_coordinates(), N);
+  std::mt19937 rng(21);
+  KinematicsWorkspace<double> ws(m);
+  KinematicsWorkspace<Jet> wj(m);
+  MotionSubspace S(m);
+  MusclePathGeometry g(m);
+  std::vector<std::pair<int, double>> switches;  // coordinate, boundary
+  for (const auto& mu : m.muscles)
+    for (const auto& p : mu.path)
+      if (p.kind == PathPoint::Kind::kConditional) switches.push_back({p.coordinate, p.range_min}), switches.push_back({p.coordinate, p.range_max});
+  int near_switch = 0;
+  for (int t = 0; t < poses; ++t) {
+    Eigen::VectorXd q = random_pose(m, rng);
+    if (t % 2 == 1 && !switches.empty()) {
+      const auto [c, edge] = switches[rng() % switches.size()];
+      q[c] = edge + (t % 4 == 1 ? 1e-4 : -1e-4);  // FD steps below stay on one side
+      ++near_switch;
+    }
+    const Eigen::VectorXd qd = Eigen::VectorXd::Random(m.num_coordinates());
+    forward_kinematics(m, q.data(), ws);
+    motion_subspace(m, q.data(), ws, S);
+    muscle_path_geometry(m, q.data(), qd.data(), ws, S, g);
+    std::vector<Jet> qj(m.num_coordinates());
+    for (int c = 0; c < m.num_coordinates(); ++c) qj[c] = Jet(q[c], c);
+    forward_kinematics(m, qj.data(), wj);
+    for (std::size_t k = 0; k < m.muscles.size(); ++k) {
+      const Jet L = path_length(m.muscles[k], qj.data(), wj);
+      EXPECT_NEAR(L.a, g.length_m[k], 1e-12) << m.muscles[k].name;
+      for (int c = 0; c < m.num_coordinates(); ++c) {
+        EXPECT_NEAR(g.moment_arm_m(k, c), -L.v[c], 1e-10) << m.muscles[k].name << " about " << m.coordinates[c].name;
+        const double h = 1e-6;
+        Eigen::VectorXd qp = q, qm = q;
+        qp[c] += h;
+        qm[c] -= h;
+        forward_kinematics(m, qp.data(), ws);
+        const double Lp = path_length(m.muscles[k], qp.data(), ws);
+        forward_kinematics(m, qm.data(), ws);
+        const double Lm = path_length(m.muscles[k], qm.data(), ws);
+        EXPECT_NEAR(g.moment_arm_m(k, c), -(Lp - Lm) / (2 * h), 1e-7) << m.muscles[k].name << " about " << m.coordinates[c].name;
+      }
+      EXPECT_NEAR(g.lengthening_speed_m_s[k], -g.moment_arm_m.row(k).dot(qd), 1e-12);
+    }
+  }
+  EXPECT_GT(near_switch, 0);
+}
+
+const Muscle& vastus() {
+  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  return m.muscles[0];
+}
+
+}  // namespace
+
+TEST(MusclePath, MomentArmsOnFixtureModel) { check_moment_arms(read_osim(refdata::fixture("models/walker.osim")).model, 16); }
+
+TEST(MusclePathReference, MomentArmsOnGait2392) {
+  const std::string path = refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim");
+  REQUIRE_REFERENCE(path);
+  check_moment_arms(read_osim(path).model, 4);
+}
+
+TEST(MusclePath, ConditionalPointSwitchesWithItsCoordinate) {
+  const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  const Muscle& vas = m.muscles[0];  // P2 active for knee in [-2.6, -1.42]
+  ASSERT_EQ(vas.path[1].kind, PathPoint::Kind::kConditional);
+  KinematicsWorkspace<double> ws(m);
+  Eigen::VectorXd q = m.default_coordinates();
+  const int knee = m.coordinate_index("knee_angle_r");
+  auto length = [&](double k) {
+    q[knee] = k;
+    forward_kinematics(m, q.data(), ws);
+    return path_length(vas, q.data(), ws);
+  };
+  // Inside the range the path goes through P2, so it is longer than the straight line P1-P3.
+  const double inside = length(-1.5), outside = length(-1.3);
+  EXPECT_TRUE(path_point_active(vas.path[1], -1.5));
+  EXPECT_FALSE(path_point_active(vas.path[1], -1.3));
+  EXPECT_GT(inside, 0);
+  EXPECT_GT(outside, 0);
+}
+
+TEST(Thelen2003, CurvesHaveTheirDefiningValues) {
+  const Muscle& m = vastus();
+  EXPECT_DOUBLE_EQ(thelen2003::active_force_length(m, 1.0), 1.0);
+  EXPECT_NEAR(thelen2003::active_force_length(m, 1.0 + std::sqrt(m.kshape_active)), std::exp(-1.0), 1e-15);
+  EXPECT_DOUBLE_EQ(thelen2003::passive_force_length(m, 1.0), 0.0);
+  EXPECT_NEAR(thelen2003::passive_force_length(m, 1.0 + m.fmax_muscle_strain), 1.0, 1e-12);  // F0 at max strain
+  EXPECT_NEAR(thelen2003::tendon_force_strain(m, 1.0 + m.fmax_tendon_strain), 1.0, 1e-12);   // F0 at e0
+  EXPECT_DOUBLE_EQ(thelen2003::tendon_force_strain(m, 0.99), 0.0);
+  // Force-velocity: isometric = 1; the inverse undoes fiber_velocity across all regions,
+  // including both linear extrapolations.
+  for (double a : {0.05, 0.5, 1.0}) {
+    const double fal = 0.8;
+    EXPECT_NEAR(thelen2003::force_velocity_multiplier(m, a, fal, 0.0), 1.0, 1e-12);
+    for (double v = -2.0; v <= 2.0; v += 0.01) {
+      const double fv = thelen2003::force_velocity_multiplier(m, a, fal, v);
+      EXPECT_NEAR(thelen2003::fiber_velocity(m, a, fal, a * fal * fv), v, 1e-10) << "a=" << a << " v=" << v;
+    }
+    // Shortening lowers force, lengthening raises it toward Flen.
+    EXPECT_LT(thelen2003::force_velocity_multiplier(m, a, fal, -0.1), 1.0);
+    EXPECT_GT(thelen2003::force_velocity_multiplier(m, a, fal, 0.1), 1.0);
+    EXPECT_LT(thelen2003::force_velocity_multiplier(m, a, fal, 0.1), m.flen);
+  }
+}
+
+TEST(Thelen2003, RigidTendonForceAtOptimalLength) {
+  const Muscle& m = vastus();
+  // Path long enough that the fibre sits at its optimal length: along-tendon part lopt*cos(a0).
+  const double L = m.tendon_slack_length_m + m.optimal_fiber_length_m * std::cos(m.pennation_angle_at_optimal_rad);
+  const auto f = thelen2003::rigid_tendon_fiber(m, L, 0.0);
+  EXPECT_NEAR(f.fiber_length_m, m.optimal_fiber_length_m, 1e-12);
+  EXPECT_NEAR(thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0),
+              m.max_isometric_force_N * std::cos(m.pennation_angle_at_optimal_rad), 1e-9);
+  EXPECT_NEAR(thelen2003::rigid_tendon_active_force(m, 0.3, L, 0.0), 0.3 * thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0), 1e-9);
+  // Activation is clamped to OpenSim's minimum of 0.01.
+  EXPECT_NEAR(thelen2003::rigid_tendon_active_force(m, 0.0, L, 0.0), 0.01 * thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0), 1e-9);
+  EXPECT_LT(thelen2003::rigid_tendon_active_force(m, 1.0, L, -0.2), thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0));
+}

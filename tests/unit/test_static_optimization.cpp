@@ -1,0 +1,165 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "cpgait/activation/static_optimization.h"
+#include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/model/osim_reader.h"
+#include "cpgait/optim/dual_newton.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+namespace {
+
+const Model& walker() {
+  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  return m;
+}
+
+// KKT conditions of min sum |x|^p, Ax = b, lo <= x <= hi, given the multipliers.
+void expect_kkt(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
+                double p, const Eigen::VectorXd& lambda, const Eigen::VectorXd& x) {
+  EXPECT_LT((A * x - b).cwiseAbs().maxCoeff(), 1e-8);
+  const Eigen::VectorXd s = A.transpose() * lambda;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    ASSERT_GE(x[i], lo[i] - 1e-12);
+    ASSERT_LE(x[i], hi[i] + 1e-12);
+    const double grad = p * std::pow(std::abs(x[i]), p - 1) * (x[i] < 0 ? -1 : 1);
+    if (x[i] > lo[i] + 1e-9 && x[i] < hi[i] - 1e-9) EXPECT_NEAR(grad, s[i], 1e-6 * (1 + std::abs(s[i])));
+    // dL/dx = grad - s: non-negative at a lower bound (raising x would not help), non-positive at an upper.
+    else if (x[i] <= lo[i] + 1e-9) EXPECT_GE(grad - s[i], -1e-6);
+    else EXPECT_LE(grad - s[i], 1e-6);
+  }
+}
+
+std::vector<Vector6d> no_loads;
+
+}  // namespace
+
+TEST(DualNewton, SatisfiesKktOnRandomProblems) {
+  std::mt19937 rng(3);
+  for (double p : {2.0, 3.0}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      const int m = 6, n = 30;
+      const Eigen::MatrixXd A = Eigen::MatrixXd::Random(m, n);
+      const Eigen::VectorXd x_feasible = Eigen::VectorXd::Random(n).cwiseAbs() * 0.5;
+      const Eigen::VectorXd b = A * x_feasible;
+      Eigen::VectorXd lo = Eigen::VectorXd::Zero(n), hi = Eigen::VectorXd::Ones(n);
+      lo.tail(3).setConstant(-1e3);  // a few free "reserves"
+      hi.tail(3).setConstant(1e3);
+      Eigen::VectorXd lambda, x;
+      DualNewtonOptions o;
+      o.exponent = p;
+      const DualNewtonSummary s = minimize_power_sum(A, b, lo, hi, o, lambda, x);
+      ASSERT_TRUE(s.converged) << "p=" << p << " trial " << trial;
+      expect_kkt(A, b, lo, hi, p, lambda, x);
+      // No feasible point nearby is better: perturb within the null space of A, stay in bounds.
+      const Eigen::MatrixXd N = A.fullPivLu().kernel();
+      const double f = x.array().abs().pow(p).sum();
+      for (int k = 0; k < 20; ++k) {
+        const Eigen::VectorXd y = x + 1e-3 * N * Eigen::VectorXd::Random(N.cols());
+        if ((y.array() < lo.array()).any() || (y.array() > hi.array()).any()) continue;
+        EXPECT_GE(y.array().abs().pow(p).sum(), f - 1e-12);
+      }
+    }
+  }
+}
+
+TEST(StaticOptimization, CoordinateActuatorsAloneCarryTheInverseDynamics) {
+  const Model& m = walker();
+  const auto synth = fixtures::synthesize_trial(m, {});
+  Storage coords;
+  coords.in_degrees = false;
+  coords.labels.push_back("time");
+  for (const auto& c : m.coordinates) coords.labels.push_back(c.name);
+  coords.data.resize(synth.q.rows(), synth.q.cols() + 1);
+  coords.data.col(0) = Eigen::Map<const Eigen::VectorXd>(synth.markers.time_s.data(), synth.q.rows());
+  coords.data.rightCols(synth.q.cols()) = synth.q;
+  // Model without muscles: one coordinate actuator per coordinate, optimal force 100.
+  Model bare = m;
+  bare.muscles.clear();
+  std::vector<ActuatorSpec> specs;
+  for (const auto& c : m.coordinates) {
+    ActuatorSpec a;
+    a.name = c.name + "_reserve";
+    a.coordinate = c.name;
+    a.optimal_force = 100;
+    specs.push_back(a);
+  }
+  const ResolvedActuators acts(bare, specs);
+  const StaticOptimizationResult r = static_optimization(bare, coords, nullptr, acts);
+  const InverseDynamicsResult id = inverse_dynamics(bare, coords, nullptr);
+  ASSERT_EQ(r.controls.rows(), id.generalized_forces.rows());
+  EXPECT_LT((r.forces - id.generalized_forces).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_LT((r.controls * 100 - id.generalized_forces).cwiseAbs().maxCoeff(), 1e-7);
+}
+
+TEST(StaticOptimization, MusclesWithReservesMeetTheEqualityWithinBounds) {
+  const Model& m = walker();
+  const auto synth = fixtures::synthesize_trial(m, {});
+  Storage coords;
+  coords.in_degrees = false;
+  coords.labels.push_back("time");
+  for (const auto& c : m.coordinates) coords.labels.push_back(c.name);
+  coords.data.resize(synth.q.rows(), synth.q.cols() + 1);
+  coords.data.col(0) = Eigen::Map<const Eigen::VectorXd>(synth.markers.time_s.data(), synth.q.rows());
+  coords.data.rightCols(synth.q.cols()) = synth.q;
+  std::vector<ActuatorSpec> specs;
+  for (const auto& c : m.coordinates) {
+    ActuatorSpec a;
+    a.name = c.name + "_reserve";
+    a.coordinate = c.name;
+    a.optimal_force = 10;  // weak: muscles should do what they can
+    specs.push_back(a);
+  }
+  const ResolvedActuators acts(m, specs);
+  StaticOptimizationOptions o;
+  o.step_interval = 5;
+  const StaticOptimizationResult r = static_optimization(m, coords, nullptr, acts, o);
+  EXPECT_EQ(r.summary.frames_not_converged, 0);
+  EXPECT_LT(r.summary.max_equality_violation, 1e-6);
+  const int nm = static_cast<int>(m.muscles.size());
+  EXPECT_GE(r.controls.leftCols(nm).minCoeff(), m.muscles[0].min_control - 1e-12);
+  EXPECT_LE(r.controls.leftCols(nm).maxCoeff(), 1.0 + 1e-12);
+  EXPECT_GT(r.controls.leftCols(nm).maxCoeff(), 0.05);  // muscles are used
+}
+
+TEST(Actuators, PointAndTorqueActuatorsActThroughTheJacobian) {
+  const Model& m = walker();
+  std::vector<ActuatorSpec> specs(2);
+  specs[0].name = "push";
+  specs[0].kind = ActuatorSpec::Kind::kPoint;
+  specs[0].body = "tibia_r";
+  specs[0].point = Eigen::Vector3d(0.01, -0.2, 0.02);
+  specs[0].direction = Eigen::Vector3d(0, 0, 1);
+  specs[0].force_is_global = true;
+  specs[0].optimal_force = 50;
+  specs[1].name = "twist";
+  specs[1].kind = ActuatorSpec::Kind::kTorque;
+  specs[1].body_a = "pelvis";
+  specs[1].body_b = "ground";
+  specs[1].axis = Eigen::Vector3d(0, 1, 0);
+  specs[1].optimal_force = 20;
+  const ResolvedActuators acts(m, specs);
+  std::mt19937 rng(2);
+  Eigen::VectorXd q = Eigen::VectorXd::Random(m.num_coordinates()) * 0.4, zero = Eigen::VectorXd::Zero(m.num_coordinates());
+  KinematicsWorkspace<double> ws(m);
+  MotionSubspace S(m);
+  forward_kinematics(m, q.data(), ws);
+  motion_subspace(m, q.data(), ws, S);
+  Eigen::MatrixXd G(m.num_coordinates(), 2);
+  acts.generalized_forces(m, ws, S, G);
+  // Same forces applied as external loads change RNEA's result by exactly -G.
+  DynamicsWorkspace dws(m);
+  Eigen::VectorXd tau0(m.num_coordinates()), tau1(m.num_coordinates());
+  rnea(m, q.data(), zero.data(), zero.data(), no_loads, dws, tau0.data());
+  std::vector<Vector6d> ext(m.bodies.size(), Vector6d::Zero());
+  const auto& T = ws.body_in_ground[m.body_index("tibia_r")];
+  ext[m.body_index("tibia_r")] = spatial_force(Eigen::Vector3d(0, 0, 50), T.rotation * specs[0].point + T.translation_m);
+  ext[m.body_index("pelvis")] = spatial_force(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 20, 0));
+  rnea(m, q.data(), zero.data(), zero.data(), ext, dws, tau1.data());
+  EXPECT_LT((tau0 - tau1 - G.col(0) - G.col(1)).cwiseAbs().maxCoeff(), 1e-10);
+  EXPECT_DOUBLE_EQ(G(m.coordinate_index("knee_angle_l"), 0), 0.0);  // other leg untouched
+}
