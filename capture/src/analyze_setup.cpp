@@ -10,10 +10,7 @@ namespace cpgait {
 
 AnalyzeSetup read_analyze_setup(const std::string& path) {
   const auto d = xml::Document::load_file(path);
-  auto tool = d.doc().document_element();
-  if (std::string(tool.name()) == "OpenSimDocument") tool = tool.child("AnalyzeTool");
-  if (!tool || std::string(tool.name()) != "AnalyzeTool")
-    throw InputError(path, 1, "AnalyzeTool", "not an OpenSim AnalyzeTool setup: no <AnalyzeTool>");
+  const pugi::xml_node tool = d.tool("AnalyzeTool");
   AnalyzeSetup s;
   s.name = tool.attribute("name").value();
   s.setup_dir = std::filesystem::absolute(path).parent_path().string();
@@ -42,7 +39,8 @@ AnalyzeSetup read_analyze_setup(const std::string& path) {
     s.step_interval = static_cast<int>(d.number(a, "step_interval", 1));
     if (s.step_interval < 1) d.fail(a.child("step_interval"), "step_interval must be at least 1");
     s.activation_exponent = d.number(a, "activation_exponent", 2.0);
-    if (!(s.activation_exponent > 1.0)) d.fail(a.child("activation_exponent"), "activation_exponent must be above 1");
+    if (!(s.activation_exponent >= 2.0))
+      d.fail(a.child("activation_exponent"), "activation_exponent must be at least 2 (cpgait's solver supports p >= 2)");
     s.use_muscle_physiology = d.boolean(a, "use_muscle_physiology", true);
     s.use_model_force_set = d.boolean(a, "use_model_force_set", true);
     if (a.child("start_time") || a.child("end_time"))

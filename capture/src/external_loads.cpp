@@ -9,10 +9,7 @@ namespace cpgait {
 
 ExternalLoadsSpec read_external_loads(const std::string& path) {
   const auto d = xml::Document::load_file(path);
-  auto root = d.doc().document_element();
-  if (std::string(root.name()) == "OpenSimDocument") root = root.child("ExternalLoads");
-  if (!root || std::string(root.name()) != "ExternalLoads")
-    throw InputError(path, 1, "ExternalLoads", "not an OpenSim ExternalLoads file: no <ExternalLoads>");
+  const pugi::xml_node root = d.tool("ExternalLoads");
   ExternalLoadsSpec s;
   s.name = root.attribute("name").value();
   s.file = path;

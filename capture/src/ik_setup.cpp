@@ -60,10 +60,7 @@ IkTaskSet parse_task_set(const xml::Document& d, const pugi::xml_node& set, cons
 
 IkSetup read_ik_setup(const std::string& path) {
   const auto d = xml::Document::load_file(path);
-  auto tool = d.doc().document_element();
-  if (std::string(tool.name()) == "OpenSimDocument") tool = tool.child("InverseKinematicsTool");
-  if (!tool || std::string(tool.name()) != "InverseKinematicsTool")
-    throw InputError(path, 1, "InverseKinematicsTool", "not an OpenSim IK setup: no <InverseKinematicsTool>");
+  const pugi::xml_node tool = d.tool("InverseKinematicsTool");
   IkSetup s;
   s.name = tool.attribute("name").value();
   s.setup_dir = std::filesystem::absolute(path).parent_path().string();
@@ -78,11 +75,7 @@ IkSetup read_ik_setup(const std::string& path) {
   s.report_errors = d.boolean(tool, "report_errors", true);
   s.accuracy = d.number(tool, "accuracy", 1e-5);
   s.constraint_weight = d.number(tool, "constraint_weight", 20);
-  if (const auto tr = tool.child("time_range")) {
-    const auto v = d.numbers_of(tr);
-    if (v.size() != 2 || !(v[0] <= v[1])) d.fail(tr, "expected two increasing times in seconds");
-    s.time_range_s = std::make_pair(v[0], v[1]);
-  }
+  s.time_range_s = d.time_range(tool);
   if (s.marker_file.empty()) throw InputError(path, d.line_of(tool), "marker_file", "the IK setup names no marker file");
   if (const auto set = tool.child("IKTaskSet")) s.tasks = task_set_from(d, set, s.setup_dir);
   return s;

@@ -16,6 +16,22 @@ int Storage::column(std::string_view label) const {
   return -1;
 }
 
+Storage make_storage(std::string name, const std::vector<std::string>& labels, const std::vector<double>& time_s,
+                     const Eigen::MatrixXd& values, std::optional<bool> in_degrees) {
+  if (values.rows() != static_cast<Eigen::Index>(time_s.size()) || values.cols() != static_cast<Eigen::Index>(labels.size()))
+    throw std::logic_error("make_storage: " + name + ": times, labels and values disagree in size");
+  Storage s;
+  s.name = std::move(name);
+  s.in_degrees = in_degrees;
+  s.labels.reserve(labels.size() + 1);
+  s.labels.push_back("time");
+  s.labels.insert(s.labels.end(), labels.begin(), labels.end());
+  s.data.resize(values.rows(), values.cols() + 1);
+  s.data.col(0) = Eigen::Map<const Eigen::VectorXd>(time_s.data(), values.rows());
+  s.data.rightCols(values.cols()) = values;
+  return s;
+}
+
 Storage read_storage(const std::string& path, const StorageReadOptions& options) {
   return parse_storage(text::read_file(path, options.max_bytes), path, options);
 }

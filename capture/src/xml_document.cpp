@@ -39,6 +39,22 @@ void Document::fail(const pugi::xml_node& node, const std::string& message) cons
   throw InputError(name_, line_of(node), node.name(), message);
 }
 
+pugi::xml_node Document::tool(const char* name) const {
+  pugi::xml_node root = doc_->document_element();
+  if (std::string_view(root.name()) == "OpenSimDocument") root = root.child(name);
+  if (!root || std::string_view(root.name()) != name)
+    throw InputError(name_, 1, name, std::string("not an OpenSim ") + name + " setup: no <" + name + ">");
+  return root;
+}
+
+std::optional<std::pair<double, double>> Document::time_range(const pugi::xml_node& parent, const char* child) const {
+  const auto node = parent.child(child);
+  if (!node) return std::nullopt;
+  const auto v = numbers_of(node);
+  if (v.size() != 2 || !(v[0] <= v[1])) fail(node, "expected two increasing times in seconds");
+  return std::make_pair(v[0], v[1]);
+}
+
 std::vector<double> Document::numbers_of(const pugi::xml_node& node) const {
   std::vector<double> out;
   for (auto cell : text::split_ws(node.child_value())) {

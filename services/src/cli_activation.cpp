@@ -97,7 +97,9 @@ void add_activation_commands(CLI::App& app) {
   so->add_option("--cutoff", a->options.lowpass_cutoff_hz, "low-pass cutoff for the coordinates, Hz (negative: none)")
       ->capture_default_str();
   so->add_option("--time", *time, "first and last time, seconds")->expected(2);
-  so->add_option("--exponent", a->options.activation_exponent, "activation exponent p (> 1)")->capture_default_str();
+  so->add_option("--exponent", a->options.activation_exponent, "activation exponent p (>= 2)")
+      ->check(CLI::Range(2.0, 100.0))
+      ->capture_default_str();
   so->add_option("--step", a->options.step_interval, "analyse every n-th sample")->capture_default_str();
   so->add_flag("--no-physiology", *no_physiology, "use max isometric force instead of force-length-velocity");
   so->add_option("--name", a->name, "output file prefix")->capture_default_str();

@@ -68,17 +68,8 @@ void add_model_commands(CLI::App& app) {
     s->o.noise_m = s->noise_mm * 1e-3;
     const auto t = fixtures::synthesize_trial(r.model, s->o);
     write_text_atomic(s->out, format_trc(t.markers, s->units));
-    Storage truth;
-    truth.name = "synthetic truth";
-    truth.in_degrees = true;
-    truth.labels.push_back("time");
-    for (const auto& c : r.model.coordinates) truth.labels.push_back(c.name);
-    truth.data.resize(t.q.rows(), t.q.cols() + 1);
-    for (int f = 0; f < t.q.rows(); ++f) {
-      truth.data(f, 0) = t.markers.time_s[f];
-      for (int c = 0; c < t.q.cols(); ++c)
-        truth.data(f, c + 1) = t.q(f, c) * (r.model.coordinates[c].is_angle() ? 180.0 / M_PI : 1.0);
-    }
+    const Storage truth = make_storage("synthetic truth", coordinate_names(r.model), t.markers.time_s,
+                                       coordinates_in_file_units(r.model, t.q), true);
     write_storage_atomic(truth, s->out + ".truth.mot");
     std::printf("wrote %s and %s.truth.mot (%d frames)\n", s->out.c_str(), s->out.c_str(), t.markers.num_frames());
   });

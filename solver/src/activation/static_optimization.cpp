@@ -108,25 +108,11 @@ std::string StaticOptimizationSummary::BriefReport() const {
   return buf;
 }
 
-static Storage so_table(const StaticOptimizationResult& r, const Eigen::MatrixXd& values, const char* name) {
-  Storage s;
-  s.name = name;
-  s.in_degrees = false;
-  s.labels.push_back("time");
-  s.labels.insert(s.labels.end(), r.names.begin(), r.names.end());
-  s.data.resize(values.rows(), values.cols() + 1);
-  for (int i = 0; i < values.rows(); ++i) {
-    s.data(i, 0) = r.time_s[i];
-    s.data.row(i).tail(values.cols()) = values.row(i);
-  }
-  return s;
-}
-
 Storage static_optimization_activation_table(const StaticOptimizationResult& r) {
-  return so_table(r, r.controls, "Static Optimization");
+  return make_storage("Static Optimization", r.names, r.time_s, r.controls, false);
 }
 Storage static_optimization_force_table(const StaticOptimizationResult& r) {
-  return so_table(r, r.forces, "Static Optimization");
+  return make_storage("Static Optimization", r.names, r.time_s, r.forces, false);
 }
 
 }  // namespace cpgait

@@ -131,18 +131,9 @@ std::string InverseDynamicsSummary::BriefReport() const {
 }
 
 Storage inverse_dynamics_table(const Model& model, const InverseDynamicsResult& result) {
-  Storage s;
-  s.name = "Inverse Dynamics";
-  s.in_degrees = false;
-  s.labels.push_back("time");
-  for (const auto& c : model.coordinates) s.labels.push_back(c.name + (c.is_angle() ? "_moment" : "_force"));
-  const int m = static_cast<int>(result.time_s.size());
-  s.data.resize(m, model.num_coordinates() + 1);
-  for (int i = 0; i < m; ++i) {
-    s.data(i, 0) = result.time_s[i];
-    s.data.row(i).tail(model.num_coordinates()) = result.generalized_forces.row(i);
-  }
-  return s;
+  std::vector<std::string> labels;
+  for (const auto& c : model.coordinates) labels.push_back(c.name + (c.is_angle() ? "_moment" : "_force"));
+  return make_storage("Inverse Dynamics", labels, result.time_s, result.generalized_forces, false);
 }
 
 }  // namespace cpgait

@@ -315,41 +315,26 @@ std::string IkSummary::BriefReport() const {
 }
 
 Storage ik_coordinates_table(const Model& model, const IkResult& result, const std::string& name) {
-  Storage s;
-  s.name = name;
-  s.in_degrees = true;
+  Storage s = make_storage(name, coordinate_names(model), result.time_s, coordinates_in_file_units(model, result.q), true);
   s.extra_header = {"", "Units are S.I. units (second, meters, Newtons, ...)", "Angles are in degrees.", ""};
-  s.labels.push_back("time");
-  for (const auto& c : model.coordinates) s.labels.push_back(c.name);
-  s.data.resize(result.q.rows(), model.num_coordinates() + 1);
-  for (int i = 0; i < result.q.rows(); ++i) {
-    s.data(i, 0) = result.time_s[i];
-    for (int c = 0; c < model.num_coordinates(); ++c)
-      s.data(i, c + 1) = result.q(i, c) * (model.coordinates[c].is_angle() ? 180.0 / kPi : 1.0);
-  }
   return s;
 }
 
 Storage ik_marker_errors_table(const IkResult& result) {
-  Storage s;
-  s.name = "Model Marker Errors from IK";
-  s.in_degrees = false;
+  std::vector<std::string> labels = {"total_squared_error", "marker_error_RMS", "marker_error_max", "worst_marker"};
+  labels.insert(labels.end(), result.marker_names.begin(), result.marker_names.end());
+  const Eigen::Index nf = result.q.rows(), nm = static_cast<Eigen::Index>(result.marker_names.size());
+  Eigen::MatrixXd values(nf, 4 + nm);
+  for (Eigen::Index i = 0; i < nf; ++i) {
+    values.row(i).head<4>() << result.total_squared_error_m2[i], result.marker_rms_m[i], result.marker_max_m[i],
+        result.worst_marker[i] + 1;
+    values.row(i).tail(nm) = result.marker_error_m.row(i);
+  }
+  Storage s = make_storage("Model Marker Errors from IK", labels, result.time_s, values, false);
   // STO cells are numbers, so the worst marker is given by position; OpenSim readers ignore the
   // columns after its own three.
   s.extra_header = {"Errors in metres. worst_marker: 1-based position of the frame's largest error among the",
                     "marker columns that follow it (0 when no marker was seen)."};
-  s.labels = {"time", "total_squared_error", "marker_error_RMS", "marker_error_max", "worst_marker"};
-  for (const auto& m : result.marker_names) s.labels.push_back(m);
-  const int nm = static_cast<int>(result.marker_names.size());
-  s.data.resize(result.q.rows(), 5 + nm);
-  for (int i = 0; i < result.q.rows(); ++i) {
-    s.data(i, 0) = result.time_s[i];
-    s.data(i, 1) = result.total_squared_error_m2[i];
-    s.data(i, 2) = result.marker_rms_m[i];
-    s.data(i, 3) = result.marker_max_m[i];
-    s.data(i, 4) = result.worst_marker[i] + 1;
-    for (int m = 0; m < nm; ++m) s.data(i, 5 + m) = result.marker_error_m(i, m);
-  }
   return s;
 }
 

@@ -26,6 +26,19 @@ double Model::total_mass_kg() const {
   return m;
 }
 
+Eigen::MatrixXd coordinates_in_file_units(const Model& model, const Eigen::MatrixXd& q) {
+  Eigen::MatrixXd out = q;
+  for (int c = 0; c < model.num_coordinates(); ++c)
+    if (model.coordinates[c].is_angle()) out.col(c) *= 180.0 / 3.14159265358979323846;
+  return out;
+}
+
+std::vector<std::string> coordinate_names(const Model& model) {
+  std::vector<std::string> names;
+  for (const auto& c : model.coordinates) names.push_back(c.name);
+  return names;
+}
+
 Eigen::Matrix3d rotation_from_body_xyz(const Eigen::Vector3d& a) {
   return (Eigen::AngleAxisd(a.x(), Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(a.y(), Eigen::Vector3d::UnitY()) *
           Eigen::AngleAxisd(a.z(), Eigen::Vector3d::UnitZ()))

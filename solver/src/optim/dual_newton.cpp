@@ -2,85 +2,115 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <stdexcept>
 
 namespace cpgait {
 namespace {
 
-struct Primal {
-  double p;
-  // argmin_x |x|^p - s x: |x|^(p-1) sign(x) p = s.
-  double x(double s) const { return std::copysign(std::pow(std::abs(s) / p, 1.0 / (p - 1.0)), s); }
-  double dx_ds(double s) const {
-    if (p == 2.0) return 0.5;
-    const double a = std::max(std::abs(s), 1e-12);
-    return std::pow(a / p, (2.0 - p) / (p - 1.0)) / (p * (p - 1.0));
-  }
-};
-
-// Dual function value and the primal point for multipliers lambda.
-double dual_value(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
-                  const Primal& pr, const Eigen::VectorXd& lambda, Eigen::VectorXd& x, Eigen::VectorXd& s) {
+// Dual function value and the primal minimiser y(lambda) of the separable quadratic.
+double dual_value(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& h, const Eigen::VectorXd& g,
+                  const Eigen::VectorXd& lo, const Eigen::VectorXd& hi, const Eigen::VectorXd& lambda, Eigen::VectorXd& y,
+                  Eigen::VectorXd& s) {
   s.noalias() = A.transpose() * lambda;
-  double g = lambda.dot(b);
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    x[i] = std::clamp(pr.x(s[i]), lo[i], hi[i]);
-    g += std::pow(std::abs(x[i]), pr.p) - s[i] * x[i];
+  double value = lambda.dot(b);
+  for (Eigen::Index i = 0; i < y.size(); ++i) {
+    y[i] = std::clamp((s[i] - g[i]) / h[i], lo[i], hi[i]);
+    value += 0.5 * h[i] * y[i] * y[i] + g[i] * y[i] - s[i] * y[i];
   }
-  return g;
+  return value;
 }
 
+double ridge(const Eigen::MatrixXd& H) { return 1e-12 * (1.0 + H.diagonal().cwiseAbs().maxCoeff()); }
+
 }  // namespace
+
+DualNewtonSummary minimize_separable_quadratic(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                                               const Eigen::VectorXd& h, const Eigen::VectorXd& g,
+                                               const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
+                                               const DualNewtonOptions& o, Eigen::VectorXd& lambda, Eigen::VectorXd& y) {
+  const Eigen::Index m = A.rows(), n = A.cols();
+  y.resize(n);
+  Eigen::VectorXd s(n), y_try(n), s_try(n), d(n);
+  Eigen::MatrixXd H(m, m), AD(m, n);
+  if (lambda.size() != m) {
+    // Cold start from the optimum without bounds; lambda = 0 would put most variables on a bound.
+    H.noalias() = A * h.cwiseInverse().asDiagonal() * A.transpose();
+    H.diagonal().array() += ridge(H);
+    lambda = H.ldlt().solve(b + A * (g.array() / h.array()).matrix());
+  }
+  const double scale = 1.0 + b.cwiseAbs().maxCoeff();
+  DualNewtonSummary summary;
+  double value = dual_value(A, b, h, g, lo, hi, lambda, y, s);
+  for (summary.iterations = 0; summary.iterations < o.max_iterations; ++summary.iterations) {
+    const Eigen::VectorXd grad = b - A * y;
+    summary.equality_residual = grad.cwiseAbs().maxCoeff();
+    if (summary.equality_residual <= o.tolerance * scale) break;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double free_y = (s[i] - g[i]) / h[i];
+      d[i] = (free_y > lo[i] && free_y < hi[i]) ? 1.0 / h[i] : 0.0;
+    }
+    AD.noalias() = A * d.asDiagonal();
+    H.noalias() = AD * A.transpose();
+    // A small ridge keeps the step defined when a row has no free variable left (its actuators all
+    // at bounds); the line search still guarantees ascent.
+    H.diagonal().array() += ridge(H);
+    const Eigen::VectorXd step = H.ldlt().solve(grad);
+    const double slope = grad.dot(step);
+    double t = 1.0, value_try = value;
+    for (int k = 0; k < 50; ++k, t *= 0.5) {
+      value_try = dual_value(A, b, h, g, lo, hi, lambda + t * step, y_try, s_try);
+      if (value_try >= value + 1e-4 * t * slope) break;
+    }
+    lambda += t * step;
+    y.swap(y_try);
+    s.swap(s_try);
+    value = value_try;
+  }
+  summary.equality_residual = (A * y - b).cwiseAbs().maxCoeff();
+  summary.converged = summary.equality_residual <= o.tolerance * scale;
+  return summary;
+}
 
 DualNewtonSummary minimize_power_sum(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lo,
                                      const Eigen::VectorXd& hi, const DualNewtonOptions& o, Eigen::VectorXd& lambda,
                                      Eigen::VectorXd& x) {
-  const Eigen::Index m = A.rows(), n = A.cols();
-  const Primal pr{o.exponent};
-  x.resize(n);
-  if (lambda.size() != m) {
-    // Cold start from the optimum without bounds (every variable free; exact for p = 2), which
-    // already has most of the active set right; lambda = 0 would put every variable on a bound.
-    const double curvature = pr.dx_ds(1.0);
-    Eigen::MatrixXd H0 = curvature * A * A.transpose();
-    H0.diagonal().array() += 1e-12 * (1.0 + H0.diagonal().cwiseAbs().maxCoeff());
-    lambda = H0.ldlt().solve(b);
-  }
-  Eigen::VectorXd s(n), x_try(n), s_try(n), d(n);
-  Eigen::MatrixXd H(m, m), AD(m, n);
-  const double scale = 1.0 + b.cwiseAbs().maxCoeff();
-  DualNewtonSummary summary;
-  double g = dual_value(A, b, lo, hi, pr, lambda, x, s);
-  for (summary.iterations = 0; summary.iterations < o.max_iterations; ++summary.iterations) {
-    const Eigen::VectorXd grad = b - A * x;
-    summary.equality_residual = grad.cwiseAbs().maxCoeff();
-    if (summary.equality_residual <= o.tolerance * scale) {
-      summary.converged = true;
-      break;
-    }
+  const Eigen::Index n = A.cols();
+  const double p = o.exponent;
+  if (!(p >= 2.0)) throw std::invalid_argument("minimize_power_sum: the exponent must be at least 2");
+  // p = 2 (and the starting point otherwise): sum x^2 is h = 2, g = 0.
+  DualNewtonSummary summary = minimize_separable_quadratic(A, b, Eigen::VectorXd::Constant(n, 2.0),
+                                                           Eigen::VectorXd::Zero(n), lo, hi, o, lambda, x);
+  if (p == 2.0 || !summary.converged) return summary;
+
+  auto objective = [p](const Eigen::VectorXd& v) { return v.array().abs().pow(p).sum(); };
+  Eigen::VectorXd h(n), g(n), step, step_lambda;
+  const double zero = 0.0;
+  for (summary.outer_iterations = 0; summary.outer_iterations < o.max_outer_iterations; ++summary.outer_iterations) {
+    // Second-order model of |x|^p around x. Its curvature vanishes at zero for p > 2, which would
+    // make the step's dual badly conditioned, so it is floored at 1e-6 of the largest; the steps
+    // stay feasible descent steps and the fixed point is unchanged.
     for (Eigen::Index i = 0; i < n; ++i) {
-      const double xi = pr.x(s[i]);
-      d[i] = (xi > lo[i] && xi < hi[i]) ? pr.dx_ds(s[i]) : 0.0;
+      g[i] = p * std::pow(std::abs(x[i]), p - 1.0) * (x[i] < zero ? -1.0 : 1.0);
+      h[i] = p * (p - 1.0) * std::pow(std::abs(x[i]), p - 2.0);
     }
-    AD = A * d.asDiagonal();
-    H.noalias() = AD * A.transpose();
-    // A small ridge keeps the step defined when a row has no free variable left (its actuators
-    // all at bounds); the line search still guarantees ascent.
-    H.diagonal().array() += 1e-12 * (1.0 + H.diagonal().cwiseAbs().maxCoeff());
-    const Eigen::VectorXd step = H.ldlt().solve(grad);
-    const double slope = grad.dot(step);
+    h = h.cwiseMax(1e-6 * std::max(h.maxCoeff(), 1e-300));
+    // The step y solves the quadratic model with A y = b - A x (which also removes any drift from
+    // the equalities) and the bounds shifted by x.
+    step_lambda.resize(0);
+    const DualNewtonSummary qp = minimize_separable_quadratic(A, b - A * x, h, g, lo - x, hi - x, o, step_lambda, step);
+    summary.iterations += qp.iterations;
+    // As the step vanishes g = A^T mu on the free variables: the step's multipliers become the
+    // problem's.
+    lambda = step_lambda;
+    const double decrease = -g.dot(step) - 0.5 * step.dot(h.asDiagonal() * step);
+    if (!(decrease > 1e-14 * (1.0 + objective(x)))) break;  // first-order optimal to rounding
+    const double f = objective(x);
     double t = 1.0;
-    double g_try = 0;
-    for (int k = 0; k < 40; ++k, t *= 0.5) {
-      g_try = dual_value(A, b, lo, hi, pr, lambda + t * step, x_try, s_try);
-      if (g_try >= g + 1e-4 * t * slope) break;
-    }
-    lambda += t * step;
-    x.swap(x_try);
-    s.swap(s_try);
-    g = g_try;
+    for (int k = 0; k < 50 && objective(x + t * step) > f + 1e-4 * t * g.dot(step); ++k) t *= 0.5;
+    x += t * step;
   }
   summary.equality_residual = (A * x - b).cwiseAbs().maxCoeff();
-  summary.converged = summary.equality_residual <= o.tolerance * scale;
+  summary.converged = summary.equality_residual <= o.tolerance * (1.0 + b.cwiseAbs().maxCoeff());
   return summary;
 }
 

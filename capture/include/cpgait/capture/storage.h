@@ -30,6 +30,10 @@ struct StorageReadOptions {
   std::size_t max_bytes = std::size_t{1} << 30;
 };
 
+// A table from times and a matrix of values (rows = times, columns = labels after "time").
+Storage make_storage(std::string name, const std::vector<std::string>& labels, const std::vector<double>& time_s,
+                     const Eigen::MatrixXd& values, std::optional<bool> in_degrees = false);
+
 // Throws InputError naming the file, line and field for anything malformed.
 Storage read_storage(const std::string& path, const StorageReadOptions& options = {});
 Storage parse_storage(std::string_view content, const std::string& name,

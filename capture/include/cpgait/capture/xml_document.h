@@ -4,6 +4,8 @@
 #include <pugixml.hpp>
 
 #include <memory>
+#include <optional>
+#include <utility>
 
 #include <Eigen/Core>
 #include <string>
@@ -31,6 +33,11 @@ class Document {
   std::string text(const pugi::xml_node& parent, const char* child, const std::string& fallback = "") const;
   std::vector<double> numbers(const pugi::xml_node& parent, const char* child) const;
   Eigen::Vector3d vec3(const pugi::xml_node& parent, const char* child, const Eigen::Vector3d& fallback) const;
+  // The <name> element of an OpenSim setup, as the root or inside <OpenSimDocument>; throws
+  // InputError when the document holds no such tool.
+  pugi::xml_node tool(const char* name) const;
+  // "<child>t0 t1</child>" with t0 <= t1 (s); unset when the child is absent.
+  std::optional<std::pair<double, double>> time_range(const pugi::xml_node& parent, const char* child = "time_range") const;
   // Parses a node's own text as numbers.
   std::vector<double> numbers_of(const pugi::xml_node& node) const;
 

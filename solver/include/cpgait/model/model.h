@@ -123,6 +123,11 @@ class Model {
   double total_mass_kg() const;
 };
 
+// Coordinate values in OpenSim's file units: angles in degrees, translations in metres, one row per
+// time, columns named after the coordinates.
+Eigen::MatrixXd coordinates_in_file_units(const Model& model, const Eigen::MatrixXd& q);
+std::vector<std::string> coordinate_names(const Model& model);
+
 // Rotation of OpenSim's `orientation` (body-fixed X-Y-Z Euler angles, rad).
 Eigen::Matrix3d rotation_from_body_xyz(const Eigen::Vector3d& angles_rad);
 

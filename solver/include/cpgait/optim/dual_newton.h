@@ -1,11 +1,15 @@
 #pragma once
-// min sum_i |x_i|^p  subject to  A x = b,  lo <= x <= hi   (p > 1)
-// by Newton's method on the Lagrangian dual. The objective is separable, so for multipliers lambda
-// each x_i is the clamped minimiser of |x|^p - (A^T lambda)_i x in closed form; the dual is concave
-// and its gradient is b - A x(lambda), its (generalized) Hessian -A D A^T with D the curvature of
-// the unclamped x_i. Each step solves one m x m system (m = rows of A), so with few equalities and
-// many variables (static optimization: 23 coordinates, ~100 actuators) it converges in a handful of
-// exact steps and meets the equalities to rounding.
+// min sum_i |x_i|^p  subject to  A x = b,  lo <= x <= hi   (p >= 2)
+//
+// The core is a separable quadratic program, min sum_i (h_i/2) y_i^2 + g_i y_i with the same kind
+// of constraints, solved by Newton's method on its Lagrangian dual: for multipliers lambda each y_i
+// is a clamped linear function of (A^T lambda)_i, the dual is concave with a piecewise-linear
+// gradient b - A y(lambda) and generalized Hessian -A D A^T (D = 1/h on the free variables). Each
+// step solves one m x m system (m = rows of A: 23 coordinates against ~100 actuators in static
+// optimization) and the iteration ends, exactly, once the active set is right: a handful of steps.
+// p = 2 is that quadratic program itself; other exponents take sequential quadratic steps from
+// the p = 2 solution, each a feasible descent step with a backtracking line search. Below p = 2
+// the curvature of |x|^p is unbounded at zero and these steps stall, so p < 2 is refused.
 #include <Eigen/Core>
 
 namespace cpgait {
@@ -13,16 +17,26 @@ namespace cpgait {
 struct DualNewtonOptions {
   double exponent = 2.0;
   double tolerance = 1e-10;   // on |A x - b|_inf, relative to 1 + |b|_inf
-  int max_iterations = 200;
+  int max_iterations = 200;   // dual Newton steps per quadratic program
+  int max_outer_iterations = 50;  // sequential quadratic steps when exponent != 2
 };
 
 struct DualNewtonSummary {
-  int iterations = 0;
+  int iterations = 0;            // dual Newton steps, all quadratic programs together
+  int outer_iterations = 0;      // sequential quadratic steps (0 for p = 2)
   double equality_residual = 0;  // |A x - b|_inf at the end
   bool converged = false;
 };
 
-// lambda: warm start in (empty: cold start), multipliers out (size rows of A). x: solution out.
+// min sum (h_i/2) y_i^2 + g_i y_i, A y = b, lo <= y <= hi (h > 0). lambda: warm start in (empty:
+// cold start from the solution without bounds), multipliers out.
+DualNewtonSummary minimize_separable_quadratic(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                                               const Eigen::VectorXd& h, const Eigen::VectorXd& g,
+                                               const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
+                                               const DualNewtonOptions& options, Eigen::VectorXd& lambda,
+                                               Eigen::VectorXd& y);
+
+// lambda as above (for p = 2 they are the problem's multipliers); x: solution out.
 DualNewtonSummary minimize_power_sum(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lo,
                                      const Eigen::VectorXd& hi, const DualNewtonOptions& options, Eigen::VectorXd& lambda,
                                      Eigen::VectorXd& x);
