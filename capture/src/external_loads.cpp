@@ -7,13 +7,15 @@
 
 namespace cpgait {
 
-ExternalLoadsSpec read_external_loads(const std::string& path) {
-  const auto d = xml::Document::load_file(path);
+namespace {
+
+ExternalLoadsSpec external_loads_from(const xml::Document& d) {
+  const std::string& path = d.name();
   const pugi::xml_node root = d.tool("ExternalLoads");
   ExternalLoadsSpec s;
   s.name = root.attribute("name").value();
   s.file = path;
-  s.setup_dir = std::filesystem::absolute(path).parent_path().string();
+  s.setup_dir = std::filesystem::absolute(path).parent_path().string();  // caller may override
   s.datafile = d.text(root, "datafile");
   s.kinematics_file = d.text(root, "external_loads_model_kinematics_file");
   s.kinematics_cutoff_hz = d.number(root, "lowpass_cutoff_frequency_for_load_kinematics", -1);
@@ -36,6 +38,16 @@ ExternalLoadsSpec read_external_loads(const std::string& path) {
     s.forces.push_back(e);
   }
   return s;
+}
+
+}  // namespace
+
+ExternalLoadsSpec read_external_loads(const std::string& path) {
+  return external_loads_from(xml::Document::load_file(path));
+}
+
+ExternalLoadsSpec parse_external_loads(std::string content, const std::string& name) {
+  return external_loads_from(xml::Document::load_string(std::move(content), name));
 }
 
 }  // namespace cpgait

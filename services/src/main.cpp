@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   cpgait::services::add_activation_commands(app);
   cpgait::services::add_model_commands(app);
   cpgait::services::add_run_tool_command(app);
+  cpgait::services::add_run_command(app);
+  cpgait::services::add_serve_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -28,5 +28,7 @@ struct ExternalLoadsSpec {
 };
 
 ExternalLoadsSpec read_external_loads(const std::string& path);
+// The same over an uploaded document; `name` is used in messages and relative paths are left as written.
+ExternalLoadsSpec parse_external_loads(std::string content, const std::string& name);
 
 }  // namespace cpgait

@@ -1,0 +1,74 @@
+// run: every available stage on one trial, as the server runs it; job.json reproduces the run.
+#include <cstdio>
+#include <filesystem>
+
+#include "commands.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/text_lines.h"
+#include "pipeline.h"
+
+namespace cpgait::services {
+namespace fs = std::filesystem;
+
+namespace {
+
+class PrintingObserver : public PipelineObserver {
+ public:
+  void stage_finished(const std::string& stage, double seconds, const nlohmann::json& summary) override {
+    std::printf("%-3s done in %.3f s: %s\n", stage.c_str(), seconds, summary.dump().c_str());
+  }
+};
+
+}  // namespace
+
+void add_run_command(CLI::App& app) {
+  auto* run = app.add_subcommand(
+      "run",
+      "Run every stage on one trial (IK, then ID, then static optimization), as the server does.\n"
+      "Inputs: .osim model, .trc markers, optional GRF .mot with its ExternalLoads .xml, optional options\n"
+      "JSON (see services/src/pipeline.h for the schema). Writes all result files and job.json (the exact\n"
+      "options and input paths) into DIR; `cpgait run --options DIR/job.json -o DIR2` reproduces them.");
+  struct Args {
+    std::string model, markers, grf, loads, options, name, out;
+  };
+  auto a = std::make_shared<Args>();
+  run->add_option("--model", a->model, "OpenSim model (.osim)")->check(CLI::ExistingFile);
+  run->add_option("--markers", a->markers, "marker trajectories (.trc)")->check(CLI::ExistingFile);
+  run->add_option("--grf", a->grf, "ground reaction forces (.mot)")->check(CLI::ExistingFile);
+  run->add_option("--loads", a->loads, "ExternalLoads .xml for the GRF")->check(CLI::ExistingFile);
+  run->add_option("--options", a->options, "options JSON (e.g. a previous job.json)")->check(CLI::ExistingFile);
+  run->add_option("--name", a->name, "output file stem (default: the marker file's name)");
+  run->add_option("-o,--output", a->out, "output folder")->required();
+  run->callback([a] {
+    PipelineOptions options = a->options.empty() ? PipelineOptions{} : PipelineOptions::parse(text::read_file(a->options), a->options);
+    // Inputs: the command line, else the paths the options recorded.
+    auto input = [&](const std::string& given, const char* key) {
+      if (!given.empty()) return fs::absolute(given).string();
+      if (options.inputs.contains(key) && options.inputs[key].is_string()) return options.inputs[key].get<std::string>();
+      return std::string();
+    };
+    TrialInputs in;
+    in.model_path = input(a->model, "model");
+    const std::string markers = input(a->markers, "markers");
+    const std::string grf = input(a->grf, "grf"), loads = input(a->loads, "loads");
+    if (in.model_path.empty() || markers.empty())
+      throw InputError(a->options.empty() ? "cpgait run" : a->options, 0, "inputs", "give --model and --markers (or options that record them)");
+    in.markers = text::read_file(markers);
+    in.markers_name = markers;
+    if (!grf.empty()) in.grf = text::read_file(grf), in.grf_name = grf;
+    if (!loads.empty()) in.loads = text::read_file(loads), in.loads_name = loads;
+    in.name = !a->name.empty() ? a->name
+              : options.inputs.contains("name") ? options.inputs["name"].get<std::string>()
+                                                : fs::path(markers).stem().string();
+    if (!is_safe_file_name(in.name)) throw InputError("cpgait run", 0, "name", "output stem '" + in.name + "' is not a safe file name");
+    options.inputs = {{"model", in.model_path}, {"markers", markers}, {"name", in.name}};
+    if (!grf.empty()) options.inputs["grf"] = grf;
+    if (!loads.empty()) options.inputs["loads"] = loads;
+    validate_inputs(in, options);
+    PrintingObserver observer;
+    const PipelineResult r = run_pipeline(in, options, a->out, &observer);
+    for (const auto& f : r.files) std::printf("wrote %s\n", (fs::path(a->out) / f).string().c_str());
+  });
+}
+
+}  // namespace cpgait::services

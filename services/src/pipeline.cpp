@@ -1,0 +1,283 @@
+#include "pipeline.h"
+
+#include <chrono>
+#include <filesystem>
+
+#include "cpgait/activation/static_optimization.h"
+#include "cpgait/capture/external_loads.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/model/osim_reader.h"
+#include "output_files.h"
+
+namespace cpgait::services {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const std::vector<std::string> kStages = {"ik", "id", "so"};
+
+namespace {
+
+[[noreturn]] void bad(const std::string& source, const std::string& field, const std::string& message) {
+  throw InputError(source, 0, field, message);
+}
+
+void only_keys(const json& j, const std::vector<std::string>& allowed, const std::string& source, const std::string& prefix) {
+  if (!j.is_object()) bad(source, prefix.empty() ? "options" : prefix, "expected a JSON object");
+  for (const auto& [k, v] : j.items())
+    if (std::find(allowed.begin(), allowed.end(), k) == allowed.end())
+      bad(source, prefix + k, "unknown option (expected one of: " + [&] {
+        std::string s;
+        for (const auto& a : allowed) s += (s.empty() ? "" : ", ") + a;
+        return s;
+      }() + ")");
+}
+
+double number(const json& j, const char* key, double fallback, const std::string& source, const std::string& field) {
+  if (!j.contains(key)) return fallback;
+  if (!j.at(key).is_number()) bad(source, field, "expected a number");
+  return j.at(key).get<double>();
+}
+
+// Residuals on the root joint's coordinates and reserves on the others, all weak (optimal force 1),
+// so static optimization is always feasible and prefers muscles.
+std::vector<ActuatorSpec> default_actuators(const Model& model) {
+  std::vector<ActuatorSpec> out;
+  for (const Joint& j : model.joints)
+    for (int c : j.coordinates) {
+      ActuatorSpec a;
+      a.coordinate = model.coordinates[c].name;
+      a.name = a.coordinate + (j.parent_body == 0 ? "_residual" : "_reserve");
+      a.optimal_force = 1.0;
+      out.push_back(a);
+    }
+  return out;
+}
+
+class StageTimer {
+ public:
+  StageTimer(PipelineObserver* o, std::string stage) : o_(o), stage_(std::move(stage)), start_(std::chrono::steady_clock::now()) {
+    if (o_) o_->stage_started(stage_);
+  }
+  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+
+ private:
+  PipelineObserver* o_;
+  std::string stage_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+// Progress of one stage, forwarded to the observer.
+class StageProgress : public Progress {
+ public:
+  StageProgress(PipelineObserver* o, std::string stage) : o_(o), stage_(std::move(stage)) {}
+  void report(double fraction, std::string_view) override {
+    if (o_ && fraction - last_ >= 0.05) {
+      last_ = fraction;
+      o_->stage_progress(stage_, fraction);
+    }
+  }
+  bool cancelled() const override { return o_ && o_->cancelled(); }
+
+ private:
+  PipelineObserver* o_;
+  std::string stage_;
+  double last_ = 0;
+};
+
+}  // namespace
+
+bool is_safe_file_name(const std::string& n) {
+  if (n.empty() || n.size() > 200 || n[0] == '.') return false;
+  for (char c : n)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) return false;
+  return true;
+}
+
+bool PipelineOptions::wants(const std::string& stage) const {
+  return std::find(stages.begin(), stages.end(), stage) != stages.end();
+}
+
+PipelineOptions PipelineOptions::parse(const std::string& text, const std::string& source) {
+  json j;
+  try {
+    j = text.empty() ? json::object() : json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw InputError(source, 0, "", std::string("malformed JSON: ") + e.what());
+  }
+  return from_json(j, source);
+}
+
+PipelineOptions PipelineOptions::from_json(const json& j, const std::string& source) {
+  PipelineOptions o;
+  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "inputs"}, source, "");
+  if (j.contains("model")) {
+    if (!j["model"].is_string()) bad(source, "model", "expected a model id string");
+    o.model_id = j["model"].get<std::string>();
+  }
+  if (j.contains("stages")) {
+    if (!j["stages"].is_array() || j["stages"].empty()) bad(source, "stages", "expected a non-empty array of stage names");
+    o.stages.clear();
+    for (const auto& s : j["stages"]) {
+      if (!s.is_string() || std::find(kStages.begin(), kStages.end(), s.get<std::string>()) == kStages.end())
+        bad(source, "stages", "unknown stage " + s.dump() + " (stages: ik, id, so)");
+      o.stages.push_back(s.get<std::string>());
+    }
+    // A stage needs the ones before it.
+    for (std::size_t k = 1; k < kStages.size(); ++k)
+      if (o.wants(kStages[k]) && !o.wants(kStages[k - 1]))
+        bad(source, "stages", "stage '" + kStages[k] + "' needs '" + kStages[k - 1] + "'");
+  }
+  if (j.contains("time_range")) {
+    const auto& t = j["time_range"];
+    if (!t.is_array() || t.size() != 2 || !t[0].is_number() || !t[1].is_number() || !(t[0].get<double>() <= t[1].get<double>()))
+      bad(source, "time_range", "expected [first, last] in seconds with first <= last");
+    o.time_range_s = std::make_pair(t[0].get<double>(), t[1].get<double>());
+  }
+  if (j.contains("ik")) {
+    const auto& ik = j["ik"];
+    only_keys(ik, {"bounds", "tasks"}, source, "ik.");
+    if (ik.contains("bounds")) {
+      const std::string b = ik["bounds"].is_string() ? ik["bounds"].get<std::string>() : "";
+      if (b == "clamped") o.ik_bounds = IkOptions::Bounds::kClampedOnly;
+      else if (b == "all") o.ik_bounds = IkOptions::Bounds::kAllRanges;
+      else if (b == "none") o.ik_bounds = IkOptions::Bounds::kNone;
+      else bad(source, "ik.bounds", "expected \"clamped\", \"all\" or \"none\"");
+    }
+    if (ik.contains("tasks")) {
+      parse_ik_tasks_json(ik["tasks"].dump(), source + " (ik.tasks)");  // validates
+      o.ik_tasks = ik["tasks"];
+    }
+  }
+  if (j.contains("id")) {
+    only_keys(j["id"], {"lowpass_cutoff_hz"}, source, "id.");
+    o.id_cutoff_hz = number(j["id"], "lowpass_cutoff_hz", o.id_cutoff_hz, source, "id.lowpass_cutoff_hz");
+  }
+  if (j.contains("so")) {
+    const auto& so = j["so"];
+    only_keys(so, {"activation_exponent", "use_muscle_physiology", "lowpass_cutoff_hz"}, source, "so.");
+    o.so_exponent = number(so, "activation_exponent", o.so_exponent, source, "so.activation_exponent");
+    if (!(o.so_exponent >= 2.0)) bad(source, "so.activation_exponent", "must be at least 2");
+    if (so.contains("use_muscle_physiology")) {
+      if (!so["use_muscle_physiology"].is_boolean()) bad(source, "so.use_muscle_physiology", "expected true or false");
+      o.so_physiology = so["use_muscle_physiology"].get<bool>();
+    }
+    o.so_cutoff_hz = number(so, "lowpass_cutoff_hz", o.so_cutoff_hz, source, "so.lowpass_cutoff_hz");
+  }
+  if (j.contains("inputs")) {
+    if (!j["inputs"].is_object()) bad(source, "inputs", "expected an object of file paths");
+    o.inputs = j["inputs"];
+  }
+  return o;
+}
+
+json PipelineOptions::to_json() const {
+  json j;
+  if (!model_id.empty()) j["model"] = model_id;
+  j["stages"] = stages;
+  if (time_range_s) j["time_range"] = {time_range_s->first, time_range_s->second};
+  j["ik"]["bounds"] = ik_bounds == IkOptions::Bounds::kClampedOnly ? "clamped" : ik_bounds == IkOptions::Bounds::kAllRanges ? "all" : "none";
+  if (ik_tasks) j["ik"]["tasks"] = *ik_tasks;
+  j["id"]["lowpass_cutoff_hz"] = id_cutoff_hz;
+  j["so"] = {{"activation_exponent", so_exponent}, {"use_muscle_physiology", so_physiology}, {"lowpass_cutoff_hz", so_cutoff_hz}};
+  if (!inputs.empty()) j["inputs"] = inputs;
+  return j;
+}
+
+void validate_inputs(const TrialInputs& in, const PipelineOptions& options) {
+  const Model model = read_osim(in.model_path).model;
+  const MarkerTrial trial = parse_trc(in.markers, in.markers_name);
+  if (!in.grf.empty() || !in.loads.empty()) {
+    if (in.grf.empty()) throw InputError(in.loads_name, 0, "grf", "external loads were given without their GRF data (.mot)");
+    if (in.loads.empty()) throw InputError(in.grf_name, 0, "loads", "GRF data were given without the ExternalLoads XML naming the bodies");
+    AppliedLoads(model, parse_external_loads(in.loads, in.loads_name), parse_storage(in.grf, in.grf_name));
+  }
+  IkOptions io;
+  io.time_range_s = options.time_range_s;
+  make_ik_targets(model, trial, options.ik_tasks ? parse_ik_tasks_json(options.ik_tasks->dump(), "options (ik.tasks)") : IkTaskSet{}, io);
+  if (options.time_range_s) {
+    bool any = false;
+    for (double t : trial.time_s) any |= t >= options.time_range_s->first - 1e-9 && t <= options.time_range_s->second + 1e-9;
+    if (!any) throw InputError("options", 0, "time_range", "no frame of the trial lies in the requested time range");
+  }
+}
+
+PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& options, const std::string& out_dir,
+                            PipelineObserver* observer) {
+  PipelineResult result;
+  ensure_directory(out_dir);
+  auto write = [&](const Storage& s, const std::string& file) {
+    write_storage_atomic(s, (fs::path(out_dir) / file).string());
+    result.files.push_back(file);
+  };
+  const OsimReadResult mr = read_osim(in.model_path);
+  const Model& model = mr.model;
+  const MarkerTrial trial = parse_trc(in.markers, in.markers_name);
+  std::unique_ptr<AppliedLoads> loads;
+  if (!in.grf.empty())
+    loads = std::make_unique<AppliedLoads>(model, parse_external_loads(in.loads, in.loads_name), parse_storage(in.grf, in.grf_name));
+
+  // IK
+  Storage coordinates;
+  if (options.wants("ik")) {
+    StageTimer timer(observer, "ik");
+    StageProgress progress(observer, "ik");
+    IkOptions io;
+    io.bounds = options.ik_bounds;
+    io.time_range_s = options.time_range_s;
+    const IkTaskSet tasks = options.ik_tasks ? parse_ik_tasks_json(options.ik_tasks->dump(), "options (ik.tasks)") : IkTaskSet{};
+    const IkResult r = inverse_kinematics(model, trial, tasks, io, nullptr, &progress);
+    coordinates = ik_coordinates_table(model, r);
+    write(coordinates, in.name + "_ik.mot");
+    write(ik_marker_errors_table(r), in.name + "_ik_marker_errors.sto");
+    const json summary = {{"frames", r.summary.frames},
+                          {"frames_per_second", r.summary.frames_per_second()},
+                          {"marker_rms_mean_m", r.summary.mean_marker_rms_m},
+                          {"marker_rms_max_m", r.summary.max_marker_rms_m},
+                          {"marker_error_max_m", r.summary.max_marker_error_m},
+                          {"frames_not_converged", r.summary.frames_not_converged},
+                          {"warnings", r.summary.warnings}};
+    result.summary["ik"] = summary;
+    if (observer) observer->stage_finished("ik", timer.seconds(), summary);
+  }
+  // ID
+  if (options.wants("id")) {
+    StageTimer timer(observer, "id");
+    StageProgress progress(observer, "id");
+    InverseDynamicsOptions o;
+    o.lowpass_cutoff_hz = options.id_cutoff_hz;
+    const InverseDynamicsResult r = inverse_dynamics(model, coordinates, loads.get(), o, &progress);
+    write(inverse_dynamics_table(model, r), in.name + "_id.sto");
+    const json summary = {{"frames", r.summary.frames},
+                          {"frames_per_second", r.summary.frames_per_second()},
+                          {"external_loads", loads != nullptr},
+                          {"warnings", r.summary.warnings}};
+    result.summary["id"] = summary;
+    if (observer) observer->stage_finished("id", timer.seconds(), summary);
+  }
+  // SO
+  if (options.wants("so")) {
+    StageTimer timer(observer, "so");
+    StageProgress progress(observer, "so");
+    StaticOptimizationOptions o;
+    o.activation_exponent = options.so_exponent;
+    o.use_muscle_physiology = options.so_physiology;
+    o.lowpass_cutoff_hz = options.so_cutoff_hz;
+    const ResolvedActuators actuators(model, default_actuators(model));
+    const StaticOptimizationResult r = static_optimization(model, coordinates, loads.get(), actuators, o, &progress);
+    write(static_optimization_activation_table(r), in.name + "_StaticOptimization_activation.sto");
+    write(static_optimization_force_table(r), in.name + "_StaticOptimization_force.sto");
+    const json summary = {{"frames", r.summary.frames},
+                          {"frames_per_second", r.summary.frames_per_second()},
+                          {"max_equality_violation", r.summary.max_equality_violation},
+                          {"frames_not_converged", r.summary.frames_not_converged},
+                          {"warnings", r.summary.warnings}};
+    result.summary["so"] = summary;
+    if (observer) observer->stage_finished("so", timer.seconds(), summary);
+  }
+  write_text_atomic((fs::path(out_dir) / "job.json").string(), options.to_json().dump(2) + "\n");
+  result.files.push_back("job.json");
+  return result;
+}
+
+}  // namespace cpgait::services

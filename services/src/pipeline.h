@@ -1,0 +1,81 @@
+#pragma once
+// The whole pipeline for one trial (IK -> ID -> SO, more stages as they land), shared by
+// `cpgait run` and the server's workers so that both write the same files. Its options are one JSON
+// document (job.json) that reproduces a run exactly.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cpgait/capture/ik_setup.h"
+#include "cpgait/ik/inverse_kinematics.h"
+
+namespace cpgait::services {
+
+// The documented options schema (all keys optional; defaults in brackets):
+//   {"model": "<model id>"            server only: which uploaded model
+//    "stages": ["ik","id","so"]       [all available]
+//    "time_range": [t0, t1]           seconds [the whole trial]
+//    "ik": {"bounds": "clamped"|"all"|"none",  ["clamped", as OpenSim]
+//           "tasks": {IK task JSON, see capture/ik_setup.h}}   [every marker, weight 1]
+//    "id": {"lowpass_cutoff_hz": 6}   [6; negative: no filtering]
+//    "so": {"activation_exponent": 2, "use_muscle_physiology": true, "lowpass_cutoff_hz": 6}
+//    "inputs": {"model","markers","grf","loads": paths}   cpgait run only: what it ran on}
+struct PipelineOptions {
+  std::string model_id;
+  std::vector<std::string> stages = {"ik", "id", "so"};
+  std::optional<std::pair<double, double>> time_range_s;
+  IkOptions::Bounds ik_bounds = IkOptions::Bounds::kClampedOnly;
+  std::optional<nlohmann::json> ik_tasks;
+  double id_cutoff_hz = 6.0;
+  double so_exponent = 2.0;
+  bool so_physiology = true;
+  double so_cutoff_hz = 6.0;
+  nlohmann::json inputs = nlohmann::json::object();
+
+  // Throws InputError naming the JSON field ("ik.bounds", ...) for anything invalid or unknown.
+  static PipelineOptions from_json(const nlohmann::json& j, const std::string& source);
+  static PipelineOptions parse(const std::string& text, const std::string& source);
+  nlohmann::json to_json() const;
+  bool wants(const std::string& stage) const;
+};
+
+extern const std::vector<std::string> kStages;  // in run order
+
+// A trial's inputs as text (uploads are held in memory; the CLI reads files).
+struct TrialInputs {
+  std::string name = "trial";  // output file stem
+  std::string model_path;
+  std::string markers, markers_name;
+  std::string grf, grf_name;      // empty when there are no loads
+  std::string loads, loads_name;
+};
+
+// Checks every input parses (TRC, GRF, loads XML, the model) without running anything; throws
+// InputError naming the file, line and field.
+void validate_inputs(const TrialInputs& inputs, const PipelineOptions& options);
+
+// What the pipeline reports as it goes; the CLI prints, the server stores and streams.
+class PipelineObserver {
+ public:
+  virtual ~PipelineObserver() = default;
+  virtual void stage_started(const std::string& /*stage*/) {}
+  virtual void stage_progress(const std::string& /*stage*/, double /*fraction*/) {}
+  virtual void stage_finished(const std::string& /*stage*/, double /*seconds*/, const nlohmann::json& /*summary*/) {}
+  virtual bool cancelled() const { return false; }
+};
+
+struct PipelineResult {
+  std::vector<std::string> files;  // written, relative to the output folder
+  nlohmann::json summary;          // per stage
+};
+
+// Runs the stages into out_dir (created), writing each file atomically, then job.json.
+PipelineResult run_pipeline(const TrialInputs& inputs, const PipelineOptions& options, const std::string& out_dir,
+                            PipelineObserver* observer = nullptr);
+
+// A file name safe to create: letters, digits, '.', '_' and '-', not starting with '.'.
+bool is_safe_file_name(const std::string& name);
+
+}  // namespace cpgait::services

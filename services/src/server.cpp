@@ -1,0 +1,457 @@
+#include "server.h"
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <regex>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/text_lines.h"
+#include "cpgait/model/osim_reader.h"
+#include "jobs.h"
+#include "output_files.h"
+#include "pipeline.h"
+
+// Last: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
+#include <httplib.h>
+
+namespace cpgait::services {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+httplib::Server* g_server = nullptr;
+void on_signal(int) {
+  if (g_server) g_server->stop();
+}
+
+void send_json(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump(), "application/json");
+}
+
+void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message,
+                const std::string& field = "", int line = 0) {
+  json e = {{"code", code}, {"message", message}};
+  if (!field.empty()) e["field"] = field;
+  if (line > 0) e["line"] = line;
+  send_json(res, status, {{"error", e}});
+}
+
+void send_input_error(httplib::Response& res, const InputError& e, const std::string& part) {
+  json err = {{"code", "invalid_input"}, {"message", e.what()}, {"part", part}};
+  if (!e.field().empty()) err["field"] = e.field();
+  if (e.line() > 0) err["line"] = e.line();
+  send_json(res, 422, {{"error", err}});
+}
+
+// A .sto/.mot as compact columns: labels and one array per column.
+json table_json(const std::string& file, const Storage& s) {
+  json columns = json::array();
+  for (int c = 0; c < s.num_columns(); ++c) {
+    std::vector<double> col(s.data.col(c).data(), s.data.col(c).data() + s.num_rows());
+    columns.push_back(col);
+  }
+  json j = {{"file", file}, {"labels", s.labels}, {"columns", columns}, {"rows", s.num_rows()}};
+  if (s.in_degrees) j["in_degrees"] = *s.in_degrees;
+  return j;
+}
+
+const std::map<std::string, std::vector<std::string>> kStageFiles = {
+    {"ik", {"_ik.mot", "_ik_marker_errors.sto"}},
+    {"id", {"_id.sto"}},
+    {"so", {"_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"}}};
+
+class Api {
+ public:
+  Api(const ServerOptions& o, Store& store, EventHub& events, Metrics& metrics, JobRunner& jobs)
+      : o_(o), store_(store), events_(events), metrics_(metrics), jobs_(jobs) {}
+
+  void install(httplib::Server& s) {
+    s.Get("/healthz", [&](const auto&, auto& res) { send_json(res, 200, {{"status", "ok"}}); });
+    s.Get("/metrics", [&](const auto&, auto& res) { metrics(res); });
+    s.Get("/api/v1/models", [&](const auto& req, auto& res) { if (auth(req, res)) list_models(res); });
+    s.Post("/api/v1/models", [&](const auto& req, auto& res) { if (auth(req, res)) upload_model(req, res); });
+    s.Post("/api/v1/trials", [&](const auto& req, auto& res) { if (auth(req, res)) upload_trial(req, res); });
+    s.Get("/api/v1/trials", [&](const auto& req, auto& res) { if (auth(req, res)) list_trials(req, res); });
+    s.Get(R"(/api/v1/trials/([^/]+))", [&](const auto& req, auto& res) { if (auth(req, res)) get_trial(req.matches[1], res); });
+    s.Delete(R"(/api/v1/trials/([^/]+))", [&](const auto& req, auto& res) { if (auth(req, res)) delete_trial(req.matches[1], res); });
+    s.Post(R"(/api/v1/trials/([^/]+)/cancel)", [&](const auto& req, auto& res) { if (auth(req, res)) cancel(req.matches[1], res); });
+    s.Get(R"(/api/v1/trials/([^/]+)/events)", [&](const auto& req, auto& res) { if (auth(req, res)) sse(req.matches[1], res); });
+    s.Get(R"(/api/v1/trials/([^/]+)/results/([^/]+))",
+          [&](const auto& req, auto& res) { if (auth(req, res)) results(req.matches[1], req.matches[2], res); });
+    s.Get(R"(/api/v1/trials/([^/]+)/files/(.+))",
+          [&](const auto& req, auto& res) { if (auth(req, res)) file(req.matches[1], req.matches[2], res); });
+    s.Get(R"(/api/v1/.*)", [&](const auto&, auto& res) { send_error(res, 404, "not_found", "no such endpoint"); });
+    if (!o_.web_dir.empty() && fs::exists(o_.web_dir)) {
+      s.set_mount_point("/", o_.web_dir);
+    } else {
+      s.Get("/", [](const auto&, auto& res) {
+        res.set_content("<!doctype html><title>cpgait</title><h1>cpgait</h1><p>The REST API is at <code>/api/v1</code> "
+                        "(trials, models, results). The review dashboard is not built yet.</p>",
+                        "text/html");
+      });
+    }
+  }
+
+ private:
+  const ServerOptions& o_;
+  Store& store_;
+  EventHub& events_;
+  Metrics& metrics_;
+  JobRunner& jobs_;
+
+  bool auth(const httplib::Request& req, httplib::Response& res) {
+    if (o_.token.empty()) return true;
+    if (req.get_header_value("Authorization") == "Bearer " + o_.token) return true;
+    send_error(res, 401, "unauthorized", "missing or wrong token: send 'Authorization: Bearer <token>'", "Authorization");
+    return false;
+  }
+
+  static bool valid_id(const std::string& id) {
+    return id.size() == 16 && std::all_of(id.begin(), id.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
+  }
+
+  std::optional<TrialRecord> find(const std::string& id, httplib::Response& res) {
+    std::optional<TrialRecord> t;
+    if (valid_id(id)) t = store_.trial(id);
+    if (!t) send_error(res, 404, "not_found", "no trial with id '" + id + "'", "id");
+    return t;
+  }
+
+  void metrics(httplib::Response& res) {
+    std::string out = "# HELP cpgait_trials Trials by status.\n# TYPE cpgait_trials gauge\n";
+    for (const char* s : {"queued", "running", "done", "failed", "cancelled"})
+      out += std::string("cpgait_trials{status=\"") + s + "\"} " + std::to_string(store_.count_trials(s)) + "\n";
+    out += "# HELP cpgait_queue_depth Trials waiting for a worker.\n# TYPE cpgait_queue_depth gauge\n";
+    out += "cpgait_queue_depth " + std::to_string(store_.count_trials("queued")) + "\n";
+    out += "# HELP cpgait_stage_seconds Stage run time.\n# TYPE cpgait_stage_seconds summary\n";
+    std::lock_guard lock(metrics_.mutex);
+    for (const auto& [stage, v] : metrics_.stage_seconds) {
+      out += "cpgait_stage_seconds_sum{stage=\"" + stage + "\"} " + std::to_string(v.first) + "\n";
+      out += "cpgait_stage_seconds_count{stage=\"" + stage + "\"} " + std::to_string(v.second) + "\n";
+    }
+    out += "# HELP cpgait_http_requests_total Requests served.\n# TYPE cpgait_http_requests_total counter\n";
+    out += "cpgait_http_requests_total " + std::to_string(metrics_.requests) + "\n";
+    res.set_content(out, "text/plain; version=0.0.4");
+  }
+
+  void list_models(httplib::Response& res) {
+    json out = json::array();
+    for (const auto& m : store_.models())
+      out.push_back({{"id", m.id}, {"name", m.name}, {"created_at", m.created_at}, {"warnings", m.warnings}, {"summary", m.summary}});
+    send_json(res, 200, {{"models", out}});
+  }
+
+  void upload_model(const httplib::Request& req, httplib::Response& res) {
+    if (!req.is_multipart_form_data() || !req.has_file("model"))
+      return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'model' part (the .osim)", "model");
+    const auto part = req.get_file_value("model");
+    const std::string name = part.filename.empty() ? "model.osim" : part.filename;
+    if (!is_safe_file_name(name)) return send_error(res, 400, "bad_file_name", "unsafe file name '" + name + "'", "model");
+    const std::string id = new_id();
+    const fs::path tmp = fs::path(o_.data_dir) / "models" / (id + ".tmp"), dir = fs::path(o_.data_dir) / "models" / id;
+    try {
+      OsimReadOptions ro;
+      if (req.has_file("markerset")) {
+        ensure_directory(tmp.string());
+        write_text_atomic((tmp / "markerset.xml").string(), req.get_file_value("markerset").content);
+        ro.marker_set_file = (tmp / "markerset.xml").string();
+      }
+      OsimReadResult r = parse_osim(part.content, name, ro);
+      // Store the model with the marker set applied is not possible in .osim form without a writer,
+      // so keep both and re-read them together.
+      ensure_directory(tmp.string());
+      write_text_atomic((tmp / "model.osim").string(), part.content);
+      ModelRecord m{id, name, now_iso8601(), r.warnings,
+                    {{"bodies", r.model.bodies.size() - 1}, {"coordinates", r.model.num_coordinates()},
+                     {"markers", r.model.markers.size()}, {"muscles", r.model.muscles.size()}, {"mass_kg", r.model.total_mass_kg()}}};
+      if (!ro.marker_set_file.empty()) {
+        // Markers from the marker set are merged into the stored model by re-reading with it.
+        m.summary["markerset"] = true;
+      }
+      fs::rename(tmp, dir);
+      store_.insert_model(m);
+      send_json(res, 201, {{"id", id}, {"warnings", m.warnings}, {"summary", m.summary}});
+    } catch (const InputError& e) {
+      std::error_code ec;
+      fs::remove_all(tmp, ec);
+      send_input_error(res, e, "model");
+    }
+  }
+
+  void upload_trial(const httplib::Request& req, httplib::Response& res) {
+    if (!req.is_multipart_form_data())
+      return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'markers' part (.trc)");
+    if (!req.has_file("markers"))
+      return send_error(res, 400, "missing_part", "a 'markers' part (.trc) is required", "markers");
+    for (const char* p : {"markers", "grf", "loads", "options"})
+      if (req.has_file(p) && !req.get_file_value(p).filename.empty() && !is_safe_file_name(req.get_file_value(p).filename))
+        return send_error(res, 400, "bad_file_name", "unsafe file name '" + req.get_file_value(p).filename + "'", p);
+    PipelineOptions options;
+    const std::string options_text = req.has_file("options") ? req.get_file_value("options").content : "";
+    try {
+      const json parsed = options_text.empty() ? json::object() : json::parse(options_text);
+      if (!parsed.is_object()) return send_error(res, 400, "malformed_json", "options: expected a JSON object", "options");
+    } catch (const json::parse_error& e) {
+      return send_error(res, 400, "malformed_json", std::string("options: ") + e.what(), "options");
+    }
+    try {
+      options = PipelineOptions::parse(options_text, "options");
+    } catch (const InputError& e) {
+      return send_input_error(res, e, "options");
+    }
+    if (options.model_id.empty()) return send_error(res, 422, "invalid_input", "options must name a model: {\"model\": \"<model id>\"}", "model");
+    if (!store_.model(options.model_id))
+      return send_error(res, 422, "unknown_model", "no model with id '" + options.model_id + "' (upload one to /api/v1/models)", "model");
+    options.inputs = json::object();
+
+    const auto markers = req.get_file_value("markers");
+    TrialInputs in;
+    in.name = markers.filename.empty() ? "trial" : fs::path(markers.filename).stem().string();
+    if (!is_safe_file_name(in.name)) in.name = "trial";
+    in.model_path = jobs_.model_path(options.model_id);
+    in.markers = markers.content;
+    in.markers_name = markers.filename.empty() ? "markers" : markers.filename;
+    if (req.has_file("grf")) in.grf = req.get_file_value("grf").content, in.grf_name = req.get_file_value("grf").filename;
+    if (req.has_file("loads")) in.loads = req.get_file_value("loads").content, in.loads_name = req.get_file_value("loads").filename;
+    if (in.grf_name.empty()) in.grf_name = "grf";
+    if (in.loads_name.empty()) in.loads_name = "loads";
+    std::string part = "markers";
+    try {
+      validate_inputs(in, options);
+    } catch (const InputError& e) {
+      for (const char* p : {"grf", "loads"})
+        if (e.file() == (std::string(p) == "grf" ? in.grf_name : in.loads_name)) part = p;
+      return send_input_error(res, e, part);
+    }
+    // Nothing is stored until everything validated; the folder appears complete (rename).
+    TrialRecord t;
+    t.id = new_id();
+    t.name = in.name;
+    t.status = "queued";
+    t.created_at = t.updated_at = now_iso8601();
+    t.options = options.to_json();
+    for (const auto& s : kStages)
+      t.stages.push_back({s, options.wants(s) ? "pending" : "skipped", 0, 0, json::object()});
+    const fs::path tmp = fs::path(o_.data_dir) / "trials" / (t.id + ".tmp"), dir = jobs_.trial_dir(t.id);
+    try {
+      ensure_directory((tmp / "inputs").string());
+      write_text_atomic((tmp / "inputs" / "markers.trc").string(), in.markers);
+      if (!in.grf.empty()) {
+        write_text_atomic((tmp / "inputs" / "grf.mot").string(), in.grf);
+        write_text_atomic((tmp / "inputs" / "loads.xml").string(), in.loads);
+      }
+      fs::rename(tmp, dir);
+      store_.insert_trial(t);
+    } catch (const std::exception& e) {
+      std::error_code ec;
+      fs::remove_all(tmp, ec);
+      fs::remove_all(dir, ec);
+      return send_error(res, 500, "storage_failed", e.what());
+    }
+    jobs_.wake();
+    const std::string base = "/api/v1/trials/" + t.id;
+    send_json(res, 202, {{"id", t.id}, {"status", t.status}, {"url", base}, {"events", base + "/events"}, {"results", base + "/results"}});
+  }
+
+  void list_trials(const httplib::Request& req, httplib::Response& res) {
+    const std::string status = req.has_param("status") ? req.get_param_value("status") : "";
+    if (!status.empty() && status != "queued" && status != "running" && status != "done" && status != "failed" && status != "cancelled")
+      return send_error(res, 400, "bad_parameter", "status must be queued, running, done, failed or cancelled", "status");
+    int limit = 50, offset = 0;
+    try {
+      if (req.has_param("limit")) limit = std::clamp(std::stoi(req.get_param_value("limit")), 1, 500);
+      if (req.has_param("offset")) offset = std::max(0, std::stoi(req.get_param_value("offset")));
+    } catch (const std::exception&) {
+      return send_error(res, 400, "bad_parameter", "limit and offset must be whole numbers", "limit");
+    }
+    json items = json::array();
+    for (const auto& t : store_.trials(status, limit, offset)) items.push_back(t.to_json());
+    send_json(res, 200, {{"trials", items}, {"total", store_.count_trials(status)}, {"limit", limit}, {"offset", offset}});
+  }
+
+  void get_trial(const std::string& id, httplib::Response& res) {
+    if (auto t = find(id, res)) send_json(res, 200, t->to_json());
+  }
+
+  void delete_trial(const std::string& id, httplib::Response& res) {
+    auto t = find(id, res);
+    if (!t) return;
+    jobs_.cancel(id);
+    store_.delete_trial(id);
+    events_.forget(id);
+    std::error_code ec;
+    fs::remove_all(jobs_.trial_dir(id), ec);
+    res.status = 204;
+  }
+
+  void cancel(const std::string& id, httplib::Response& res) {
+    auto t = find(id, res);
+    if (!t) return;
+    if (!jobs_.cancel(id))
+      return send_error(res, 409, "not_cancellable", "trial is already " + t->status, "status");
+    send_json(res, 202, {{"id", id}, {"status", "cancelling"}});
+  }
+
+  void sse(const std::string& id, httplib::Response& res) {
+    if (!find(id, res)) return;
+    res.set_header("Cache-Control", "no-cache");
+    res.set_chunked_content_provider("text/event-stream", [this, id, after = 0L, sent_snapshot = false](size_t, httplib::DataSink& sink) mutable {
+      auto send = [&](const char* event, const json& data) {
+        const std::string msg = std::string("event: ") + event + "\ndata: " + data.dump() + "\n\n";
+        return sink.write(msg.data(), msg.size());
+      };
+      auto finished = [](const std::string& s) { return s == "done" || s == "failed" || s == "cancelled"; };
+      if (!sent_snapshot) {
+        sent_snapshot = true;
+        const auto t = store_.trial(id);
+        if (!t) return false;
+        if (!send("snapshot", t->to_json())) return false;
+        if (finished(t->status)) {
+          send("end", {{"status", t->status}});
+          sink.done();
+          return true;
+        }
+      }
+      for (const auto& [seq, e] : events_.wait(id, after, 15000)) {
+        after = seq;
+        if (!send("progress", e)) return false;
+        if (e.contains("status") && finished(e["status"].get<std::string>())) {
+          send("end", {{"status", e["status"]}});
+          sink.done();
+          return true;
+        }
+      }
+      // Heartbeat, and a check in case the trial ended while nobody was publishing (deleted).
+      const auto t = store_.trial(id);
+      if (!t) {
+        sink.done();
+        return true;
+      }
+      if (finished(t->status) && after == 0) {
+        send("end", {{"status", t->status}});
+        sink.done();
+        return true;
+      }
+      const std::string beat = ": keep-alive\n\n";
+      return sink.write(beat.data(), beat.size());
+    });
+  }
+
+  fs::path result_dir(const TrialRecord& t) {
+    const fs::path dir = jobs_.trial_dir(t.id);
+    return fs::exists(dir / "results") ? dir / "results" : dir / "work";
+  }
+
+  void results(const std::string& id, const std::string& stage, httplib::Response& res) {
+    auto t = find(id, res);
+    if (!t) return;
+    const auto it = kStageFiles.find(stage);
+    if (it == kStageFiles.end()) return send_error(res, 404, "unknown_stage", "stages are ik, id and so", "stage");
+    const auto s = std::find_if(t->stages.begin(), t->stages.end(), [&](const StageRecord& r) { return r.name == stage; });
+    if (s == t->stages.end() || s->state != "done")
+      return send_error(res, 409, "not_ready", "stage '" + stage + "' is " + (s == t->stages.end() ? "absent" : s->state), "stage");
+    json tables = json::array();
+    try {
+      for (const auto& suffix : it->second) {
+        const std::string file = t->name + suffix;
+        tables.push_back(table_json(file, read_storage((result_dir(*t) / file).string())));
+      }
+    } catch (const std::exception& e) {
+      return send_error(res, 409, "not_ready", std::string("results are not readable yet: ") + e.what());
+    }
+    send_json(res, 200, {{"trial", id}, {"stage", stage}, {"summary", s->summary}, {"tables", tables}});
+  }
+
+  void file(const std::string& id, const std::string& name, httplib::Response& res) {
+    auto t = find(id, res);
+    if (!t) return;
+    if (!is_safe_file_name(name)) return send_error(res, 400, "bad_file_name", "unsafe file name '" + name + "'", "name");
+    const fs::path p = result_dir(*t) / name;
+    if (!fs::is_regular_file(p)) return send_error(res, 404, "not_found", "no result file '" + name + "'", "name");
+    res.set_content(text::read_file(p.string()), name.size() > 5 && name.substr(name.size() - 5) == ".json" ? "application/json" : "text/plain");
+  }
+};
+
+thread_local std::chrono::steady_clock::time_point t_request_start;
+
+}  // namespace
+
+int serve(const ServerOptions& o) {
+  ensure_directory((fs::path(o.data_dir) / "trials").string());
+  ensure_directory((fs::path(o.data_dir) / "models").string());
+  Store store((fs::path(o.data_dir) / "cpgait.sqlite").string());
+  EventHub events;
+  Metrics metrics;
+  JobRunner jobs(store, events, metrics, o.data_dir, o.workers);
+
+  // cpgait's own fixture model is always there, so a first upload needs no model upload.
+  const fs::path builtin = fs::path(CPGAIT_FIXTURES_DIR) / "models" / "walker.osim";
+  if (!store.model("walker") && fs::exists(builtin)) {
+    ensure_directory((fs::path(o.data_dir) / "models" / "walker").string());
+    fs::copy_file(builtin, fs::path(o.data_dir) / "models" / "walker" / "model.osim", fs::copy_options::overwrite_existing);
+    const OsimReadResult r = read_osim(builtin.string());
+    store.insert_model({"walker", "walker.osim (cpgait fixture)", now_iso8601(), r.warnings,
+                        {{"bodies", r.model.bodies.size() - 1}, {"coordinates", r.model.num_coordinates()},
+                         {"markers", r.model.markers.size()}, {"muscles", r.model.muscles.size()}, {"mass_kg", r.model.total_mass_kg()}}});
+  }
+
+  httplib::Server server;
+  server.new_task_queue = [] { return new httplib::ThreadPool(64); };
+  server.set_payload_max_length(o.max_upload_bytes);
+  server.set_read_timeout(o.read_timeout_s, 0);
+  server.set_write_timeout(o.read_timeout_s, 0);
+  server.set_pre_routing_handler([&](const httplib::Request&, httplib::Response&) {
+    t_request_start = std::chrono::steady_clock::now();
+    std::lock_guard lock(metrics.mutex);
+    metrics.requests++;
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+  // Every error leaves as JSON, including httplib's own (413 too large, 400 bad request, 404).
+  server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+    if (!res.body.empty()) return;
+    const char* code = res.status == 413 ? "payload_too_large" : res.status == 404 ? "not_found" : "http_error";
+    const std::string message = res.status == 413 ? "upload is larger than the server accepts"
+                                : "HTTP error " + std::to_string(res.status);
+    send_error(res, res.status, code, message);
+  });
+  server.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+    try {
+      std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+      send_error(res, 500, "internal_error", e.what());
+    }
+  });
+  server.set_logger([](const httplib::Request& req, const httplib::Response& res) {
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_request_start).count();
+    json line = {{"event", "request"}, {"method", req.method}, {"path", req.path}, {"status", res.status}, {"ms", ms}};
+    std::smatch m;
+    static const std::regex trial_re(R"(/api/v1/trials/([0-9a-f]{16}))");
+    if (std::regex_search(req.path, m, trial_re)) line["trial"] = m[1].str();
+    log_line(line);
+  });
+  Api api(o, store, events, metrics, jobs);
+  api.install(server);
+
+  const int port = o.port == 0 ? server.bind_to_any_port(o.host) : (server.bind_to_port(o.host, o.port) ? o.port : -1);
+  if (port < 0) {
+    std::fprintf(stderr, "error: cannot listen on %s:%d (in use?)\n", o.host.c_str(), o.port);
+    return 1;
+  }
+  jobs.start();
+  g_server = &server;
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  std::printf("listening on http://%s:%d\ndashboard: http://%s:%d/  data: %s  workers: %d%s\n", o.host.c_str(), port,
+              o.host.c_str(), port, fs::absolute(o.data_dir).string().c_str(), o.workers, o.token.empty() ? "" : "  token required");
+  std::fflush(stdout);
+  server.listen_after_bind();
+  g_server = nullptr;
+  jobs.stop();
+  return 0;
+}
+
+}  // namespace cpgait::services

@@ -1,0 +1,22 @@
+#pragma once
+// `cpgait serve`: the REST API under /api/v1, /healthz, /metrics, and the dashboard at /.
+#include <cstddef>
+#include <string>
+
+namespace cpgait::services {
+
+struct ServerOptions {
+  std::string host = "127.0.0.1";
+  int port = 8080;  // 0: any free port (printed)
+  std::string data_dir = "./data";
+  int workers = 2;
+  std::string token;  // when set, /api/v1 needs "Authorization: Bearer <token>"
+  std::size_t max_upload_bytes = std::size_t{256} << 20;
+  int read_timeout_s = 60;
+  std::string web_dir;  // built dashboard (web/dist); a placeholder page when absent
+};
+
+// Runs until SIGINT/SIGTERM. Prints "listening on http://host:port" once bound.
+int serve(const ServerOptions& options);
+
+}  // namespace cpgait::services

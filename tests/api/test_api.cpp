@@ -1,0 +1,389 @@
+// The REST service against a real server process on 127.0.0.1.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "cpgait/capture/text_lines.h"
+#include "cpgait/capture/trc.h"
+#include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/model/osim_reader.h"
+#include "server_process.h"
+#include "test_support.h"
+
+// Last: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
+#include <httplib.h>
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using cpgait::apitest::ServerProcess;
+
+namespace {
+
+std::string temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("cpgait_api_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d.string();
+}
+
+std::string slurp(const std::string& path) { return cpgait::text::read_file(path); }
+
+std::string synthetic_trc(double duration_s, std::uint32_t seed = 1) {
+  const cpgait::Model m = cpgait::read_osim(cpgait::refdata::fixture("models/walker.osim")).model;
+  cpgait::fixtures::SyntheticTrialOptions o;
+  o.duration_s = duration_s;
+  o.noise_m = 0.0005;
+  o.seed = seed;
+  return cpgait::format_trc(cpgait::fixtures::synthesize_trial(m, o).markers, "mm");
+}
+
+httplib::MultipartFormDataItems trial_form(const std::string& trc, const std::string& trc_name, const json& options) {
+  return {{"markers", trc, trc_name, "text/plain"}, {"options", options.dump(), "options.json", "application/json"}};
+}
+
+json body(const httplib::Result& r) { return json::parse(r->body); }
+
+// Follows the trial's Server-Sent Events to the end; returns the final status and counts events.
+std::string follow_events(httplib::Client& c, const std::string& id, int* progress_events = nullptr) {
+  std::string buffer, status;
+  int count = 0;
+  c.set_read_timeout(120, 0);
+  auto r = c.Get(("/api/v1/trials/" + id + "/events").c_str(), [&](const char* data, size_t n) {
+    buffer.append(data, n);
+    std::size_t p;
+    while ((p = buffer.find("\n\n")) != std::string::npos) {
+      const std::string msg = buffer.substr(0, p);
+      buffer.erase(0, p + 2);
+      if (msg.rfind("event: progress", 0) == 0) ++count;
+      if (msg.rfind("event: end", 0) == 0) status = json::parse(msg.substr(msg.find("data: ") + 6))["status"];
+    }
+    return true;
+  });
+  EXPECT_TRUE(r) << "SSE request failed";
+  if (progress_events) *progress_events = count;
+  return status;
+}
+
+std::string wait_finished(httplib::Client& c, const std::string& id, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < deadline) {
+    auto r = c.Get(("/api/v1/trials/" + id).c_str());
+    if (r && r->status == 200) {
+      const std::string s = body(r)["status"];
+      if (s == "done" || s == "failed" || s == "cancelled") return s;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return "timeout";
+}
+
+int run_cli(const std::string& args) {
+  const int s = std::system((std::string(CPGAIT_BINARY) + " " + args + " > /dev/null 2>&1").c_str());
+  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+}
+
+const std::vector<std::string> kResultSuffixes = {"_ik.mot", "_ik_marker_errors.sto", "_id.sto",
+                                                  "_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"};
+
+}  // namespace
+
+// Acceptance 1: upload subject01, follow the SSE stream to completion, and check that the served
+// files equal what `cpgait run` writes for the same inputs; and that job.json reproduces them.
+TEST(ApiReference, Subject01UploadMatchesCliRun) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot", "subject01_walk1_grf.xml"})
+    REQUIRE_REFERENCE(pl + f);
+  const std::string dir = temp_dir("subject01");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{
+                                        {"model", slurp(pl + "OutputReference/subject01_simbody.osim"), "subject01_simbody.osim", "application/xml"}});
+  ASSERT_TRUE(m);
+  ASSERT_EQ(m->status, 201) << m->body;
+  const std::string model_id = body(m)["id"];
+  EXPECT_TRUE(body(m)["warnings"].is_array());
+
+  const json options = {{"model", model_id}, {"time_range", {0.5, 2.5}}};
+  httplib::MultipartFormDataItems form = trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", options);
+  form.push_back({"grf", slurp(pl + "subject01_walk1_grf.mot"), "subject01_walk1_grf.mot", "text/plain"});
+  form.push_back({"loads", slurp(pl + "subject01_walk1_grf.xml"), "subject01_walk1_grf.xml", "application/xml"});
+  auto t = c.Post("/api/v1/trials", form);
+  ASSERT_TRUE(t);
+  ASSERT_EQ(t->status, 202) << t->body;
+  const std::string id = body(t)["id"];
+  int progress = 0;
+  EXPECT_EQ(follow_events(c, id, &progress), "done") << server.log();
+  EXPECT_GT(progress, 3);
+  const json trial = body(c.Get(("/api/v1/trials/" + id).c_str()));
+  EXPECT_EQ(trial["status"], "done");
+  for (const auto& s : trial["stages"]) EXPECT_EQ(s["state"], "done") << s.dump();
+
+  // The CLI on the same inputs and options.
+  std::ofstream(dir + "/options.json") << options.dump();
+  ASSERT_EQ(run_cli("run --model " + pl + "OutputReference/subject01_simbody.osim --markers " + pl + "subject01_walk1.trc --grf " + pl +
+                    "subject01_walk1_grf.mot --loads " + pl + "subject01_walk1_grf.xml --options " + dir + "/options.json -o " + dir + "/cli"),
+            0);
+  for (const auto& suffix : kResultSuffixes) {
+    const std::string name = "subject01_walk1" + suffix;
+    auto f = c.Get(("/api/v1/trials/" + id + "/files/" + name).c_str());
+    ASSERT_TRUE(f);
+    ASSERT_EQ(f->status, 200) << name;
+    EXPECT_EQ(f->body, slurp(dir + "/cli/" + name)) << name << " differs between the service and cpgait run";
+  }
+  // job.json alone reproduces the run.
+  ASSERT_EQ(run_cli("run --options " + dir + "/cli/job.json -o " + dir + "/cli2"), 0);
+  for (const auto& suffix : kResultSuffixes)
+    EXPECT_EQ(slurp(dir + "/cli/subject01_walk1" + suffix), slurp(dir + "/cli2/subject01_walk1" + suffix)) << suffix;
+
+  // Results as columns.
+  const json so = body(c.Get(("/api/v1/trials/" + id + "/results/so").c_str()));
+  ASSERT_EQ(so["tables"].size(), 2u);
+  EXPECT_EQ(so["tables"][0]["labels"].size(), 1u + 92u + 23u);  // time, muscles, one actuator per coordinate
+  EXPECT_EQ(so["tables"][0]["rows"], 121);
+  fs::remove_all(dir);
+}
+
+// Acceptance 2: kill -9 during a job; after a restart every job ends complete and no finished
+// result changed.
+TEST(Api, KillDuringJobsThenRestartCompletesEverything) {
+  const std::string dir = temp_dir("restart");
+  std::map<std::string, std::string> finished_before;  // file -> content
+  std::vector<std::string> ids;
+  std::string first;
+  {
+    ServerProcess server(dir + "/data", {"--workers", "1"});
+    httplib::Client c("127.0.0.1", server.port());
+    auto t = c.Post("/api/v1/trials", trial_form(synthetic_trc(1.0), "quick.trc", {{"model", "walker"}}));
+    ASSERT_EQ(t->status, 202) << t->body;
+    first = body(t)["id"];
+    ASSERT_EQ(wait_finished(c, first, 60), "done");
+    for (const auto& e : fs::directory_iterator(dir + "/data/trials/" + first + "/results"))
+      finished_before[e.path().string()] = slurp(e.path().string());
+    // Long trials (a minute of walking each) queue behind one worker.
+    const std::string long_trc = synthetic_trc(60.0, 2);
+    for (int i = 0; i < 3; ++i) {
+      auto r = c.Post("/api/v1/trials", trial_form(long_trc, "long" + std::to_string(i) + ".trc", {{"model", "walker"}}));
+      ASSERT_EQ(r->status, 202) << r->body;
+      ids.push_back(body(r)["id"]);
+    }
+    // Wait until one is running, then crash the server.
+    bool saw_running = false;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (!saw_running && std::chrono::steady_clock::now() < deadline) {
+      saw_running = body(c.Get(("/api/v1/trials/" + ids[0]).c_str()))["status"] == "running";
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_TRUE(saw_running);
+    server.stop(SIGKILL);
+  }
+  ServerProcess server(dir + "/data", {"--workers", "1"});
+  httplib::Client c("127.0.0.1", server.port());
+  for (const auto& id : ids) EXPECT_EQ(wait_finished(c, id, 180), "done") << server.log();
+  EXPECT_NE(server.log().find("\"requeued\""), std::string::npos) << "the interrupted trial was not re-queued";
+  for (const auto& [path, content] : finished_before) EXPECT_EQ(slurp(path), content) << path << " changed";
+  for (const auto& id : ids) {
+    EXPECT_FALSE(fs::exists(dir + "/data/trials/" + id + "/work"));
+    EXPECT_TRUE(fs::exists(dir + "/data/trials/" + id + "/results/long" + std::to_string(&id - &ids[0]) + "_StaticOptimization_force.sto"));
+  }
+  fs::remove_all(dir);
+}
+
+// Acceptance 3: every kind of bad input gets the right status and a useful JSON message, and
+// nothing is stored for a rejected upload.
+TEST(Api, BadInputMatrix) {
+  const std::string dir = temp_dir("bad");
+  ServerProcess server(dir + "/data", {"--max-upload-mb", "1"});
+  httplib::Client c("127.0.0.1", server.port());
+  const std::string trc = synthetic_trc(0.3);
+  const json walker = {{"model", "walker"}};
+  struct Case {
+    std::string what;
+    httplib::MultipartFormDataItems form;
+    int status;
+    std::string code, field;
+    int line;
+  };
+  std::string bad_trc = trc;
+  bad_trc.replace(bad_trc.find("\tmm\t"), 4, "\tft\t");
+  std::string bad_cell = trc;
+  {
+    const std::size_t row = bad_cell.find("\n1\t");  // first data row: line 7
+    bad_cell.insert(bad_cell.find('\t', bad_cell.find('\t', row + 1) + 1) + 1, "x");
+  }
+  std::vector<Case> cases = {
+      {"no markers part", {{"options", walker.dump(), "o.json", ""}}, 400, "missing_part", "markers", 0},
+      {"bad units", trial_form(bad_trc, "a.trc", walker), 422, "invalid_input", "Units", 3},
+      {"non-numeric cell", trial_form(bad_cell, "a.trc", walker), 422, "invalid_input", "R.ASIS.X", 7},
+      {"truncated TRC", trial_form(trc.substr(0, trc.size() / 2), "a.trc", walker), 422, "invalid_input", "", 0},
+      {"malformed options JSON", trial_form(trc, "a.trc", json()), 400, "malformed_json", "options", 0},
+      {"unknown option", trial_form(trc, "a.trc", {{"model", "walker"}, {"ik", {{"bound", "all"}}}}), 422, "invalid_input", "ik.bound", 0},
+      {"unknown model", trial_form(trc, "a.trc", {{"model", "nope"}}), 422, "unknown_model", "model", 0},
+      {"no model", trial_form(trc, "a.trc", json::object()), 422, "invalid_input", "model", 0},
+      {"path traversal", trial_form(trc, "../../etc/passwd", walker), 400, "bad_file_name", "markers", 0},
+      {"grf without loads", [&] {
+         auto f = trial_form(trc, "a.trc", walker);
+         f.push_back({"grf", "x\nendheader\ntime\ta\n0\t1\n", "g.mot", ""});
+         return f;
+       }(), 422, "invalid_input", "loads", 0},
+      {"malformed loads XML", [&] {
+         auto f = trial_form(trc, "a.trc", walker);
+         f.push_back({"grf", "g\nendheader\ntime\tf_vx\tf_vy\tf_vz\n0\t1\t2\t3\n1\t1\t2\t3\n", "g.mot", ""});
+         f.push_back({"loads", "<OpenSimDocument>\n<ExternalLoads>\n<objects>\n</ExternalLoads>", "l.xml", ""});
+         return f;
+       }(), 422, "invalid_input", "", 4},
+  };
+  cases[4].form[1].content = "{\"model\": ";
+  for (const auto& k : cases) {
+    auto r = c.Post("/api/v1/trials", k.form);
+    ASSERT_TRUE(r) << k.what;
+    EXPECT_EQ(r->status, k.status) << k.what << ": " << r->body;
+    const json e = json::parse(r->body, nullptr, false);
+    ASSERT_TRUE(e.contains("error")) << k.what << ": " << r->body;
+    EXPECT_EQ(e["error"]["code"], k.code) << k.what << ": " << r->body;
+    EXPECT_FALSE(e["error"]["message"].get<std::string>().empty()) << k.what;
+    if (!k.field.empty()) {
+      EXPECT_EQ(e["error"].value("field", ""), k.field) << k.what << ": " << r->body;
+    }
+    if (k.line > 0) {
+      EXPECT_EQ(e["error"].value("line", 0), k.line) << k.what << ": " << r->body;
+    }
+  }
+  // Too large: 413 with a JSON body.
+  auto big = c.Post("/api/v1/trials", trial_form(std::string(2 << 20, 'x'), "big.trc", walker));
+  ASSERT_TRUE(big);
+  EXPECT_EQ(big->status, 413);
+  EXPECT_EQ(json::parse(big->body)["error"]["code"], "payload_too_large");
+  // Nothing was stored for any rejected upload.
+  EXPECT_EQ(body(c.Get("/api/v1/trials"))["total"], 0);
+  EXPECT_TRUE(fs::is_empty(dir + "/data/trials"));
+  // Unknown ids, stages and files.
+  EXPECT_EQ(c.Get("/api/v1/trials/0123456789abcdef")->status, 404);
+  EXPECT_EQ(c.Get("/api/v1/trials/..%2F..%2Fetc")->status, 404);
+  EXPECT_EQ(c.Delete("/api/v1/trials/0123456789abcdef")->status, 404);
+  auto ok = c.Post("/api/v1/trials", trial_form(trc, "fine.trc", walker));
+  ASSERT_EQ(ok->status, 202);
+  const std::string id = body(ok)["id"];
+  EXPECT_EQ(c.Get(("/api/v1/trials/" + id + "/results/xyz").c_str())->status, 404);
+  EXPECT_EQ(wait_finished(c, id, 60), "done");
+  EXPECT_EQ(c.Get(("/api/v1/trials/" + id + "/files/..%2Finputs%2Fmarkers.trc").c_str())->status, 400);
+  EXPECT_EQ(c.Get(("/api/v1/trials/" + id + "/files/nothing.sto").c_str())->status, 404);
+  EXPECT_EQ(c.Post(("/api/v1/trials/" + id + "/cancel").c_str())->status, 409);  // already done
+  EXPECT_EQ(c.Get("/api/v1/trials?status=maybe")->status, 400);
+  // A model that does not parse.
+  auto bad_model = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", "<Model>\n<BodySet>", "bad.osim", ""}});
+  EXPECT_EQ(bad_model->status, 422);
+  EXPECT_EQ(json::parse(bad_model->body)["error"]["line"], 2);
+  EXPECT_EQ(body(c.Get("/api/v1/models"))["models"].size(), 1u);  // only the built-in
+  // The server survived all of it.
+  EXPECT_EQ(c.Get("/healthz")->status, 200);
+  fs::remove_all(dir);
+}
+
+TEST(Api, TokenCancelDeleteListAndMetrics) {
+  const std::string dir = temp_dir("token");
+  ServerProcess server(dir + "/data", {"--token", "s3cret", "--workers", "1"});
+  httplib::Client c("127.0.0.1", server.port());
+  EXPECT_EQ(c.Get("/api/v1/trials")->status, 401);
+  c.set_bearer_token_auth("wrong");
+  auto wrong = c.Get("/api/v1/trials");
+  EXPECT_EQ(wrong->status, 401);
+  EXPECT_EQ(json::parse(wrong->body)["error"]["code"], "unauthorized");
+  c.set_bearer_token_auth("s3cret");
+  EXPECT_EQ(c.Get("/api/v1/trials")->status, 200);
+  EXPECT_EQ(c.Get("/healthz")->status, 200);  // health needs no token
+  // A long trial to cancel, a queued one behind it to cancel, a short one to keep.
+  const std::string long_trc = synthetic_trc(60.0, 3);
+  const std::string a = body(c.Post("/api/v1/trials", trial_form(long_trc, "a.trc", {{"model", "walker"}})))["id"];
+  const std::string b = body(c.Post("/api/v1/trials", trial_form(long_trc, "b.trc", {{"model", "walker"}})))["id"];
+  const std::string k = body(c.Post("/api/v1/trials", trial_form(synthetic_trc(0.3), "k.trc", {{"model", "walker"}, {"stages", {"ik"}}})))["id"];
+  EXPECT_EQ(c.Post(("/api/v1/trials/" + b + "/cancel").c_str())->status, 202);
+  while (body(c.Get(("/api/v1/trials/" + a).c_str()))["status"] == "queued") std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_EQ(c.Post(("/api/v1/trials/" + a + "/cancel").c_str())->status, 202);
+  EXPECT_EQ(wait_finished(c, a, 60), "cancelled");
+  EXPECT_EQ(wait_finished(c, b, 60), "cancelled");
+  EXPECT_EQ(wait_finished(c, k, 60), "done");
+  const json kt = body(c.Get(("/api/v1/trials/" + k).c_str()));
+  EXPECT_EQ(kt["stages"][1]["state"], "skipped");  // only IK was asked for
+  const json list = body(c.Get("/api/v1/trials?status=cancelled&limit=1"));
+  EXPECT_EQ(list["total"], 2);
+  EXPECT_EQ(list["trials"].size(), 1u);
+  const std::string metrics = c.Get("/metrics")->body;
+  EXPECT_NE(metrics.find("cpgait_trials{status=\"cancelled\"} 2"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find("cpgait_stage_seconds_count{stage=\"ik\"}"), std::string::npos) << metrics;
+  EXPECT_EQ(c.Delete(("/api/v1/trials/" + k).c_str())->status, 204);
+  EXPECT_EQ(c.Get(("/api/v1/trials/" + k).c_str())->status, 404);
+  EXPECT_FALSE(fs::exists(dir + "/data/trials/" + k));
+  // One log line per request and per stage, with the trial id.
+  EXPECT_NE(server.log().find("\"event\":\"stage\""), std::string::npos);
+  EXPECT_NE(server.log().find("\"trial\":\"" + k + "\""), std::string::npos);
+  fs::remove_all(dir);
+}
+
+// Acceptance 4: 50 concurrent uploads of subject01 all complete; wall time, peak memory and the
+// latency of GET /trials/{id} while they run are reported.
+TEST(ApiReference, FiftyConcurrentUploads) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot"}) REQUIRE_REFERENCE(pl + f);
+  const std::string dir = temp_dir("load");
+  ServerProcess server(dir + "/data", {"--workers", "2"});
+  httplib::Client c("127.0.0.1", server.port());
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{
+                                        {"model", slurp(pl + "OutputReference/subject01_simbody.osim"), "subject01_simbody.osim", ""}});
+  ASSERT_EQ(m->status, 201);
+  const json options = {{"model", body(m)["id"]}, {"time_range", {0.5, 2.5}}};
+  httplib::MultipartFormDataItems form = trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", options);
+  form.push_back({"grf", slurp(pl + "subject01_walk1_grf.mot"), "subject01_walk1_grf.mot", ""});
+  form.push_back({"loads", slurp(pl + "subject01_walk1_grf.xml"), "subject01_walk1_grf.xml", ""});
+
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<std::string> ids(50);
+  std::vector<std::thread> uploaders;
+  for (int i = 0; i < 50; ++i)
+    uploaders.emplace_back([&, i] {
+      httplib::Client ci("127.0.0.1", server.port());
+      ci.set_read_timeout(60, 0);
+      auto r = ci.Post("/api/v1/trials", form);
+      if (r && r->status == 202) ids[i] = json::parse(r->body)["id"];
+    });
+  for (auto& t : uploaders) t.join();
+  ASSERT_EQ(std::count_if(ids.begin(), ids.end(), [](const std::string& s) { return !s.empty(); }), 50);
+  // Poll every trial while they run; keep the latencies.
+  std::vector<double> latency_ms;
+  int done = 0;
+  const auto deadline = start + std::chrono::seconds(300);
+  while (done < 50 && std::chrono::steady_clock::now() < deadline) {
+    done = 0;
+    for (const auto& id : ids) {
+      const auto t0 = std::chrono::steady_clock::now();
+      auto r = c.Get(("/api/v1/trials/" + id).c_str());
+      latency_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      ASSERT_TRUE(r && r->status == 200);
+      const std::string s = json::parse(r->body)["status"];
+      ASSERT_NE(s, "failed") << r->body;
+      done += s == "done";
+    }
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(done, 50);
+  std::sort(latency_ms.begin(), latency_ms.end());
+  long peak_kb = 0;
+  {
+    std::ifstream status("/proc/" + std::to_string(server.pid()) + "/status");
+    std::string line;
+    while (std::getline(status, line))
+      if (line.rfind("VmHWM:", 0) == 0) peak_kb = std::stol(line.substr(6));
+  }
+  std::printf("[ info ] 50 concurrent subject01 uploads (2 workers): all done in %.2f s; server peak RSS %.1f MB; "
+              "GET /trials/{id} while running: p50 %.2f ms, p95 %.2f ms over %zu requests\n",
+              wall, peak_kb / 1024.0, latency_ms[latency_ms.size() / 2], latency_ms[latency_ms.size() * 95 / 100], latency_ms.size());
+  fs::remove_all(dir);
+}
