@@ -57,6 +57,11 @@ std::string JobRunner::model_path(const std::string& model_id) const {
   return (fs::path(data_dir_) / "models" / model_id / "model.osim").string();
 }
 
+std::string JobRunner::marker_set_path(const std::string& model_id) const {
+  const fs::path p = fs::path(data_dir_) / "models" / model_id / "markerset.xml";
+  return fs::exists(p) ? p.string() : std::string();
+}
+
 void JobRunner::start() {
   for (const auto& id : store_.requeue_interrupted()) {
     std::error_code ec;
@@ -176,6 +181,7 @@ void JobRunner::run_trial(const TrialRecord& t) {
     TrialInputs in;
     in.name = t.name;
     in.model_path = model_path(options.model_id);
+    in.marker_set_path = marker_set_path(options.model_id);
     in.markers = text::read_file((dir / "inputs" / "markers.trc").string());
     in.markers_name = "markers.trc";
     if (fs::exists(dir / "inputs" / "grf.mot")) {

@@ -54,6 +54,7 @@ class JobRunner {
   bool cancel(const std::string& id);
   std::string trial_dir(const std::string& id) const;
   std::string model_path(const std::string& model_id) const;
+  std::string marker_set_path(const std::string& model_id) const;  // empty when the model has none
   int running() const { return running_.load(); }
 
  private:

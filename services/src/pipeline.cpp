@@ -184,8 +184,16 @@ json PipelineOptions::to_json() const {
   return j;
 }
 
+namespace {
+OsimReadResult read_trial_model(const TrialInputs& in) {
+  OsimReadOptions o;
+  o.marker_set_file = in.marker_set_path;
+  return read_osim(in.model_path, o);
+}
+}  // namespace
+
 void validate_inputs(const TrialInputs& in, const PipelineOptions& options) {
-  const Model model = read_osim(in.model_path).model;
+  const Model model = read_trial_model(in).model;
   const MarkerTrial trial = parse_trc(in.markers, in.markers_name);
   if (!in.grf.empty() || !in.loads.empty()) {
     if (in.grf.empty()) throw InputError(in.loads_name, 0, "grf", "external loads were given without their GRF data (.mot)");
@@ -210,7 +218,7 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     write_storage_atomic(s, (fs::path(out_dir) / file).string());
     result.files.push_back(file);
   };
-  const OsimReadResult mr = read_osim(in.model_path);
+  const OsimReadResult mr = read_trial_model(in);
   const Model& model = mr.model;
   const MarkerTrial trial = parse_trc(in.markers, in.markers_name);
   std::unique_ptr<AppliedLoads> loads;

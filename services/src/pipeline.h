@@ -47,6 +47,7 @@ extern const std::vector<std::string> kStages;  // in run order
 struct TrialInputs {
   std::string name = "trial";  // output file stem
   std::string model_path;
+  std::string marker_set_path;  // optional marker-set XML applied to the model
   std::string markers, markers_name;
   std::string grf, grf_name;      // empty when there are no loads
   std::string loads, loads_name;

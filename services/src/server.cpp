@@ -151,34 +151,32 @@ class Api {
     const auto part = req.get_file_value("model");
     const std::string name = part.filename.empty() ? "model.osim" : part.filename;
     if (!is_safe_file_name(name)) return send_error(res, 400, "bad_file_name", "unsafe file name '" + name + "'", "model");
+    // Written to <id>.tmp, validated there, then renamed into place: a rejected model leaves nothing.
     const std::string id = new_id();
     const fs::path tmp = fs::path(o_.data_dir) / "models" / (id + ".tmp"), dir = fs::path(o_.data_dir) / "models" / id;
+    std::string part_name = "model";
     try {
+      ensure_directory(tmp.string());
+      write_text_atomic((tmp / "model.osim").string(), part.content);
       OsimReadOptions ro;
       if (req.has_file("markerset")) {
-        ensure_directory(tmp.string());
+        part_name = "markerset";
         write_text_atomic((tmp / "markerset.xml").string(), req.get_file_value("markerset").content);
         ro.marker_set_file = (tmp / "markerset.xml").string();
       }
-      OsimReadResult r = parse_osim(part.content, name, ro);
-      // Store the model with the marker set applied is not possible in .osim form without a writer,
-      // so keep both and re-read them together.
-      ensure_directory(tmp.string());
-      write_text_atomic((tmp / "model.osim").string(), part.content);
-      ModelRecord m{id, name, now_iso8601(), r.warnings,
-                    {{"bodies", r.model.bodies.size() - 1}, {"coordinates", r.model.num_coordinates()},
-                     {"markers", r.model.markers.size()}, {"muscles", r.model.muscles.size()}, {"mass_kg", r.model.total_mass_kg()}}};
-      if (!ro.marker_set_file.empty()) {
-        // Markers from the marker set are merged into the stored model by re-reading with it.
-        m.summary["markerset"] = true;
-      }
+      part_name = "model";
+      const OsimReadResult r = parse_osim(part.content, name, ro);
+      const ModelRecord m{id, name, now_iso8601(), r.warnings,
+                          {{"bodies", r.model.bodies.size() - 1}, {"coordinates", r.model.num_coordinates()},
+                           {"markers", r.model.markers.size()}, {"muscles", r.model.muscles.size()},
+                           {"mass_kg", r.model.total_mass_kg()}, {"markerset", !ro.marker_set_file.empty()}}};
       fs::rename(tmp, dir);
       store_.insert_model(m);
       send_json(res, 201, {{"id", id}, {"warnings", m.warnings}, {"summary", m.summary}});
     } catch (const InputError& e) {
       std::error_code ec;
       fs::remove_all(tmp, ec);
-      send_input_error(res, e, "model");
+      send_input_error(res, e, e.file().find("markerset") != std::string::npos ? "markerset" : part_name);
     }
   }
 
@@ -213,6 +211,7 @@ class Api {
     in.name = markers.filename.empty() ? "trial" : fs::path(markers.filename).stem().string();
     if (!is_safe_file_name(in.name)) in.name = "trial";
     in.model_path = jobs_.model_path(options.model_id);
+    in.marker_set_path = jobs_.marker_set_path(options.model_id);
     in.markers = markers.content;
     in.markers_name = markers.filename.empty() ? "markers" : markers.filename;
     if (req.has_file("grf")) in.grf = req.get_file_value("grf").content, in.grf_name = req.get_file_value("grf").filename;

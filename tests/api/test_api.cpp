@@ -152,6 +152,29 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
   fs::remove_all(dir);
 }
 
+TEST(ApiReference, ModelWithSeparateMarkerSet) {
+  const std::string model = cpgait::refdata::gait2392("model/gait2392_simbody.osim");
+  const std::string markers = cpgait::refdata::gait2392("pipeline/gait2392_Scale_MarkerSet.xml");
+  REQUIRE_REFERENCE(model);
+  REQUIRE_REFERENCE(markers);
+  const std::string dir = temp_dir("markerset");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto bare = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", slurp(model), "gait2392_simbody.osim", ""}});
+  auto with = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", slurp(model), "gait2392_simbody.osim", ""},
+                                                                       {"markerset", slurp(markers), "markers.xml", ""}});
+  ASSERT_EQ(bare->status, 201) << bare->body;
+  ASSERT_EQ(with->status, 201) << with->body;
+  EXPECT_GT(body(with)["summary"]["markers"].get<int>(), body(bare)["summary"]["markers"].get<int>());
+  EXPECT_TRUE(body(with)["summary"]["markerset"].get<bool>());
+  auto broken = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", slurp(model), "g.osim", ""},
+                                                                         {"markerset", "<MarkerSet>\n<objects>", "m.xml", ""}});
+  EXPECT_EQ(broken->status, 422);
+  EXPECT_EQ(json::parse(broken->body)["error"]["part"], "markerset");
+  EXPECT_EQ(body(c.Get("/api/v1/models"))["models"].size(), 3u);  // built-in + the two good ones
+  fs::remove_all(dir);
+}
+
 // Acceptance 2: kill -9 during a job; after a restart every job ends complete and no finished
 // result changed.
 TEST(Api, KillDuringJobsThenRestartCompletesEverything) {
