@@ -8,7 +8,10 @@ PACKAGES=(
   libeigen3-dev libceres-dev libopencv-dev libapriltag-dev
   libcpp-httplib-dev nlohmann-json3-dev libpugixml-dev libsqlite3-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  chromium  # the dashboard's browser tests (driven by playwright-core from npm)
 )
+# Node.js and npm for the dashboard, from Debian unless a newer one is already on the machine.
+command -v npm >/dev/null 2>&1 || PACKAGES+=(nodejs npm)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

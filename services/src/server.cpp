@@ -12,6 +12,7 @@
 #include "jobs.h"
 #include "output_files.h"
 #include "pipeline.h"
+#include "review_data.h"
 
 // Last: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
 #include <httplib.h>
@@ -82,6 +83,8 @@ class Api {
     s.Get(R"(/api/v1/trials/([^/]+)/events)", [&](const auto& req, auto& res) { if (auth(req, res)) sse(req.matches[1], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/results/([^/]+))",
           [&](const auto& req, auto& res) { if (auth(req, res)) results(req.matches[1], req.matches[2], res); });
+    s.Get(R"(/api/v1/trials/([^/]+)/kinematics)",
+          [&](const auto& req, auto& res) { if (auth(req, res)) kinematics(req.matches[1], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/files/(.+))",
           [&](const auto& req, auto& res) { if (auth(req, res)) file(req.matches[1], req.matches[2], res); });
     s.Get(R"(/api/v1/.*)", [&](const auto&, auto& res) { send_error(res, 404, "not_found", "no such endpoint"); });
@@ -273,7 +276,15 @@ class Api {
   }
 
   void get_trial(const std::string& id, httplib::Response& res) {
-    if (auto t = find(id, res)) send_json(res, 200, t->to_json());
+    auto t = find(id, res);
+    if (!t) return;
+    json j = t->to_json();
+    j["files"] = json::array();
+    std::error_code ec;
+    if (t->status == "done")
+      for (const auto& e : fs::directory_iterator(result_dir(*t), ec)) j["files"].push_back(e.path().filename().string());
+    std::sort(j["files"].begin(), j["files"].end());
+    send_json(res, 200, j);
   }
 
   void delete_trial(const std::string& id, httplib::Response& res) {
@@ -363,6 +374,25 @@ class Api {
       return send_error(res, 409, "not_ready", std::string("results are not readable yet: ") + e.what());
     }
     send_json(res, 200, {{"trial", id}, {"stage", stage}, {"summary", s->summary}, {"tables", tables}});
+  }
+
+  void kinematics(const std::string& id, httplib::Response& res) {
+    auto t = find(id, res);
+    if (!t) return;
+    if (t->stages.empty() || t->stages[0].state != "done")
+      return send_error(res, 409, "not_ready", "inverse kinematics is not done yet", "stage");
+    const fs::path dir = jobs_.trial_dir(id), inputs = dir / "inputs";
+    const std::string model_id = t->options.value("model", "");
+    const bool have_grf = fs::exists(inputs / "grf.mot");
+    try {
+      send_json(res, 200,
+                trial_kinematics_json(jobs_.model_path(model_id), jobs_.marker_set_path(model_id),
+                                      (result_dir(*t) / (t->name + "_ik.mot")).string(), text::read_file((inputs / "markers.trc").string()),
+                                      have_grf ? text::read_file((inputs / "grf.mot").string()) : "",
+                                      have_grf ? text::read_file((inputs / "loads.xml").string()) : ""));
+    } catch (const std::exception& e) {
+      send_error(res, 409, "not_ready", std::string("kinematics not available: ") + e.what());
+    }
   }
 
   void file(const std::string& id, const std::string& name, httplib::Response& res) {

@@ -34,8 +34,8 @@ AppliedLoads::AppliedLoads(const Model& model, const ExternalLoadsSpec& spec, co
 double AppliedLoads::start_time_s() const { return data_.time()[0]; }
 double AppliedLoads::end_time_s() const { return data_.time()[data_.num_rows() - 1]; }
 
-void AppliedLoads::wrenches_at(double t, const KinematicsWorkspace<double>& kin, std::vector<Vector6d>& out) const {
-  for (auto& w : out) w.setZero();
+void AppliedLoads::forces_at(double t, const KinematicsWorkspace<double>& kin, std::vector<Sample>& out) const {
+  out.clear();
   const auto time = data_.time();
   const int n = data_.num_rows();
   // Linear interpolation; held at the end values outside the data.
@@ -49,22 +49,29 @@ void AppliedLoads::wrenches_at(double t, const KinematicsWorkspace<double>& kin,
     return v;
   };
   for (const Force& f : forces_) {
-    const auto& B = kin.body_in_ground[f.body];
-    Eigen::Vector3d force = vec(f.force_col);
-    if (f.force_frame != 0) force = kin.body_in_ground[f.force_frame].rotation * force;
-    Eigen::Vector3d point = B.translation_m;  // body origin when no point is given
-    if (f.point_col >= 0) {
-      point = vec(f.point_col);
+    Sample s{f.body, kin.body_in_ground[f.body].translation_m, vec(f.force_col), Eigen::Vector3d::Zero()};
+    if (f.force_frame != 0) s.force_N = kin.body_in_ground[f.force_frame].rotation * s.force_N;
+    if (f.point_col >= 0) {  // else the body origin
+      s.point_m = vec(f.point_col);
       if (f.point_frame != 0) {
         const auto& P = kin.body_in_ground[f.point_frame];
-        point = P.rotation * point + P.translation_m;
+        s.point_m = P.rotation * s.point_m + P.translation_m;
       }
     }
     // Free torques are expressed like the force.
-    Eigen::Vector3d torque = f.torque_col >= 0 ? vec(f.torque_col) : Eigen::Vector3d::Zero();
-    if (f.torque_col >= 0 && f.force_frame != 0) torque = kin.body_in_ground[f.force_frame].rotation * torque;
-    out[f.body] += spatial_force(force, point, torque);
+    if (f.torque_col >= 0) {
+      s.torque_Nm = vec(f.torque_col);
+      if (f.force_frame != 0) s.torque_Nm = kin.body_in_ground[f.force_frame].rotation * s.torque_Nm;
+    }
+    out.push_back(s);
   }
+}
+
+void AppliedLoads::wrenches_at(double t, const KinematicsWorkspace<double>& kin, std::vector<Vector6d>& out) const {
+  for (auto& w : out) w.setZero();
+  thread_local std::vector<Sample> samples;
+  forces_at(t, kin, samples);
+  for (const Sample& s : samples) out[s.body] += spatial_force(s.force_N, s.point_m, s.torque_Nm);
 }
 
 }  // namespace cpgait

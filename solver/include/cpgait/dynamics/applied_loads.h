@@ -16,6 +16,12 @@ class AppliedLoads {
   // Throws InputError naming the XML line when a body or a data column is missing.
   AppliedLoads(const Model& model, const ExternalLoadsSpec& spec, const Storage& data);
 
+  // Each external force at time t, in ground: the body it acts on, where, how much.
+  struct Sample {
+    int body;
+    Eigen::Vector3d point_m, force_N, torque_Nm;
+  };
+  void forces_at(double t_s, const KinematicsWorkspace<double>& kinematics, std::vector<Sample>& out) const;
   // Spatial forces (ground, about the ground origin) per body at time t, data interpolated linearly.
   // `kinematics` gives body poses for forces or points expressed in a body frame.
   void wrenches_at(double t_s, const KinematicsWorkspace<double>& kinematics, std::vector<Vector6d>& out) const;

@@ -1,0 +1,185 @@
+// Browser test of the dashboard: Debian's Chromium (headless) driven by playwright-core against a
+// real `cpgait serve` on 127.0.0.1. Uploads a trial through the UI, waits for it to finish, and
+// checks the 3-D view, the plots, scrubbing and the keyboard. Screenshots go to $ARTIFACTS.
+// Exit 77 (ctest: skipped) when Chromium or the dashboard's packages are absent.
+import assert from 'node:assert/strict';
+import { spawn, execFileSync } from 'node:child_process';
+import { createRequire } from 'node:module';
+import { existsSync, mkdirSync, mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import path from 'node:path';
+
+const { CPGAIT_BINARY, CPGAIT_SOURCE_DIR, CPGAIT_SHARED_DIR, ARTIFACTS } = process.env;
+const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+const skip = (why) => { console.log(`SKIPPED: ${why}`); process.exit(77); };
+if (!existsSync(CHROMIUM)) skip(`no Chromium at ${CHROMIUM} (install the Debian package 'chromium')`);
+const webDir = path.join(CPGAIT_SOURCE_DIR, 'web');
+if (!existsSync(path.join(webDir, 'node_modules', 'playwright-core'))) skip('web/node_modules is missing (run ./install-deps.sh)');
+if (!existsSync(path.join(webDir, 'dist', 'app.js'))) skip('the dashboard is not built (web/dist)');
+const { chromium } = createRequire(path.join(webDir, 'package.json'))('playwright-core');
+
+mkdirSync(ARTIFACTS, { recursive: true });
+const work = mkdtempSync(path.join(tmpdir(), 'cpgait-browser-'));
+const pipeline = path.join(CPGAIT_SHARED_DIR, 'reference/opensim/gait2392/pipeline');
+const haveShared = existsSync(path.join(pipeline, 'subject01_walk1.trc'));
+let passed = 0, failed = 0;
+
+// The server.
+const server = spawn(CPGAIT_BINARY, ['serve', '--port', '0', '--data', path.join(work, 'data')], { stdio: ['ignore', 'pipe', 'pipe'] });
+const port = await new Promise((resolve, reject) => {
+  let out = '';
+  server.stdout.on('data', (d) => { out += d; const m = out.match(/listening on http:\/\/127\.0\.0\.1:(\d+)/); if (m) resolve(Number(m[1])); });
+  server.on('exit', (c) => reject(new Error(`server exited ${c}: ${out}`)));
+  setTimeout(() => reject(new Error('server did not start')), 20000);
+});
+const base = `http://127.0.0.1:${port}`;
+const browser = await chromium.launch({
+  executablePath: CHROMIUM,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+    '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+});
+const page = await browser.newPage({ viewport: { width: 1400, height: 1000 } });
+const consoleErrors = [];
+page.on('pageerror', (e) => consoleErrors.push(String(e)));
+
+async function check(name, fn) {
+  try { await fn(); passed++; console.log(`ok - ${name}`); } catch (e) { failed++; console.log(`not ok - ${name}\n  ${e.stack || e}`); }
+}
+// Pixels of the WebGL canvas that differ from the background.
+const viewerPixels = () => page.evaluate(() => {
+  const src = document.querySelector('#viewer canvas');
+  const c = document.createElement('canvas');
+  c.width = src.width; c.height = src.height;
+  const g = c.getContext('2d');
+  g.drawImage(src, 0, 0);
+  const d = g.getImageData(0, 0, c.width, c.height).data;
+  let n = 0; const sig = [];
+  for (let i = 0; i < d.length; i += 4) {
+    const lit = Math.abs(d[i] - 15) + Math.abs(d[i + 1] - 23) + Math.abs(d[i + 2] - 42) > 40;
+    if (lit) n++;
+    if (i % 4096 === 0) sig.push(lit ? 1 : 0);
+  }
+  return { lit: n, signature: sig.join('') };
+});
+
+try {
+  // Inputs: subject01 from ../shared with its model, else a synthetic trial on the built-in model.
+  let trc, grf, loads, model = null;
+  if (haveShared) {
+    trc = path.join(pipeline, 'subject01_walk1.trc');
+    grf = path.join(pipeline, 'subject01_walk1_grf.mot');
+    loads = path.join(pipeline, 'subject01_walk1_grf.xml');
+    model = path.join(pipeline, 'OutputReference/subject01_simbody.osim');
+  } else {
+    trc = path.join(work, 'walk.trc');
+    execFileSync(CPGAIT_BINARY, ['synth', '--model', path.join(CPGAIT_SOURCE_DIR, 'fixtures/models/walker.osim'), '--duration', '2', '-o', trc]);
+  }
+
+  await check('upload form shows the API\'s validation message next to the field', async () => {
+    await page.goto(`${base}/#/upload`);
+    const bad = path.join(work, 'bad.trc');
+    execFileSync('sh', ['-c', `printf 'PathFileType\\t4\\nDataRate\\tNumFrames\\tNumMarkers\\tUnits\\n60\\t1\\t1\\tfurlongs\\n' > ${bad}`]);
+    await page.setInputFiles('#markers', bad);
+    await page.click('#upload button[type=submit]');
+    const msg = page.locator('[data-error-for="markers"]');
+    await msg.waitFor({ state: 'visible' });
+    await page.waitForFunction(() => document.querySelector('[data-error-for="markers"]').textContent.length > 0);
+    assert.match(await msg.textContent(), /bad\.trc:\d+: /);
+    await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-upload-error.png') });
+  });
+
+  let trialId;
+  await check('upload a trial and watch it complete', async () => {
+    if (model) {
+      await page.setInputFiles('#osim', model);
+      await page.click('#model-upload button[type=submit]');
+      await page.waitForFunction(() => document.querySelectorAll('#model option').length >= 2);
+      const values = await page.locator('#model option').evaluateAll((o) => o.map((x) => x.value));
+      await page.selectOption('#model', values.find((v) => v !== 'walker'));
+    }
+    await page.setInputFiles('#markers', trc);
+    if (grf) { await page.setInputFiles('#grf', grf); await page.setInputFiles('#loads', loads); }
+    if (haveShared) { await page.fill('#t0', '0.5'); await page.fill('#t1', '2.5'); }
+    await page.click('#upload button[type=submit]');
+    await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
+    trialId = page.url().match(/trial\/([0-9a-f]{16})/)[1];
+    await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 120000 });
+    assert.equal(await page.locator('h1 .status').textContent(), 'done');
+  });
+
+  await check('trial list shows the trial with its status and metrics', async () => {
+    await page.goto(`${base}/#/`);
+    const row = page.locator(`tr[data-id="${trialId}"]`);
+    await row.waitFor();
+    assert.match(await row.textContent(), /done/);
+    assert.match(await row.textContent(), /marker RMS [\d.]+ mm/);
+    await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-list.png') });
+    await page.goto(`${base}/#/trial/${trialId}`);
+    await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 60000 });
+  });
+
+  await check('3-D view draws the model (non-blank canvas)', async () => {
+    await page.waitForTimeout(300);
+    const { lit } = await viewerPixels();
+    assert.ok(lit > 500, `only ${lit} lit pixels`);
+    await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-trial.png'), fullPage: true });
+  });
+
+  await check('plots hold the right number of series', async () => {
+    const counts = await page.evaluate(() => {
+      const p = window.__cpgait.plots;
+      return { angles: p.angles.series.length, markerError: p.markerError.series.length, activations: p.activations && p.activations.series.length,
+        heatRows: p.heatmap && p.heatmap.rows, moments: p.moments && p.moments.series.length };
+    });
+    assert.equal(counts.angles, 1 + 3);        // time + three default coordinates
+    assert.equal(counts.markerError, 1 + 2);   // time + RMS + max
+    assert.equal(counts.activations, 1 + 4);   // time + the four most active muscles
+    assert.equal(counts.moments, 1 + 3);
+    assert.equal(counts.heatRows, haveShared ? 92 : 6);
+  });
+
+  await check('scrubbing changes the pose and moves the playhead', async () => {
+    const before = await viewerPixels();
+    const n = await page.evaluate(() => window.__cpgait.frames);
+    await page.locator('#scrub').fill(String(Math.floor(n / 2)));
+    await page.waitForTimeout(200);
+    const after = await viewerPixels();
+    assert.equal(await page.evaluate(() => window.__cpgait.frame), Math.floor(n / 2));
+    let diff = 0;
+    for (let i = 0; i < before.signature.length; ++i) diff += before.signature[i] !== after.signature[i];
+    assert.ok(diff > 5, `pose barely changed (${diff} sampled pixels differ)`);
+    await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-scrubbed.png') });
+  });
+
+  await check('keyboard: arrows step frames, space plays and pauses', async () => {
+    const f0 = await page.evaluate(() => window.__cpgait.frame);
+    await page.locator('body').click({ position: { x: 5, y: 5 } });
+    await page.keyboard.press('ArrowRight');
+    assert.equal(await page.evaluate(() => window.__cpgait.frame), f0 + 1);
+    await page.keyboard.press('ArrowLeft');
+    assert.equal(await page.evaluate(() => window.__cpgait.frame), f0);
+    await page.keyboard.press('Space');
+    await page.waitForTimeout(500);
+    assert.notEqual(await page.evaluate(() => window.__cpgait.frame), f0, 'playback did not advance');
+    await page.keyboard.press('Space');
+    assert.equal(await page.locator('#play').textContent(), 'Play');
+  });
+
+  await check('every result file is downloadable', async () => {
+    const links = await page.locator('.files a').evaluateAll((a) => a.map((x) => x.getAttribute('href')));
+    assert.ok(links.length >= 6, `only ${links.length} files listed`);
+    for (const href of links) {
+      const r = await page.request.get(base + href);
+      assert.equal(r.status(), 200, href);
+    }
+  });
+
+  await check('no script errors', async () => assert.deepEqual(consoleErrors, []));
+} finally {
+  await browser.close();
+  server.kill('SIGTERM');
+  rmSync(work, { recursive: true, force: true });
+}
+console.log(`screenshots in ${ARTIFACTS}`);
+console.log(`${passed} passed, ${failed} failed`);
+process.exit(failed ? 1 : 0);

@@ -1,0 +1,332 @@
+// cpgait dashboard: trial list with live progress, upload form, trial review.
+import './style.css';
+import { Viewer } from './viewer.js';
+import { linePlot, heatMap } from './plots.js';
+
+const app = document.getElementById('app');
+const state = { cleanups: [] };
+// Test and debugging hooks: the browser tests read these.
+window.__cpgait = { frame: 0, frames: 0, plots: {}, ready: false };
+
+// ---------------------------------------------------------------- API
+function token() { return localStorage.getItem('cpgait.token') || ''; }
+async function api(path, opts = {}) {
+  const headers = Object.assign({}, opts.headers || {});
+  if (token()) headers.Authorization = 'Bearer ' + token();
+  const res = await fetch('/api/v1' + path, Object.assign({}, opts, { headers }));
+  const text = await res.text();
+  let body = null;
+  try { body = text ? JSON.parse(text) : null; } catch { body = { error: { message: text } }; }
+  if (!res.ok) {
+    if (res.status === 401) askToken();
+    const err = new Error((body && body.error && body.error.message) || res.statusText);
+    err.status = res.status;
+    err.detail = (body && body.error) || {};
+    throw err;
+  }
+  return body;
+}
+function askToken() {
+  const t = prompt('This server needs an access token:');
+  if (t) { localStorage.setItem('cpgait.token', t); route(); }
+}
+
+// ---------------------------------------------------------------- helpers
+const h = (tag, attrs = {}, ...children) => {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (k.startsWith('on')) e.addEventListener(k.slice(2), v);
+    else if (v !== undefined && v !== null && v !== false) e.setAttribute(k, v === true ? '' : v);
+  }
+  for (const c of children.flat()) if (c !== null && c !== undefined) e.append(c.nodeType ? c : document.createTextNode(String(c)));
+  return e;
+};
+const fmt = (v, d = 1) => (v == null || Number.isNaN(v) ? '–' : Number(v).toFixed(d));
+function cleanup() { state.cleanups.forEach((f) => f()); state.cleanups = []; }
+
+// ---------------------------------------------------------------- router
+window.addEventListener('hashchange', route);
+function route() {
+  cleanup();
+  window.__cpgait.ready = false;
+  const hash = location.hash || '#/';
+  const m = hash.match(/^#\/trial\/([0-9a-f]{16})/);
+  if (m) return trialView(m[1]);
+  if (hash.startsWith('#/upload')) return uploadView();
+  return listView();
+}
+
+// ---------------------------------------------------------------- trial list
+function stageCell(s) {
+  const pct = Math.round(100 * (s.state === 'done' ? 1 : s.progress || 0));
+  return h('span', { title: `${s.name}: ${s.state}` }, h('span', { class: `bar ${s.state}` }, h('span', { style: `width:${pct}%` })), s.name, ' ');
+}
+function metrics(t) {
+  const ik = (t.stages.find((s) => s.name === 'ik') || {}).summary || {};
+  const so = (t.stages.find((s) => s.name === 'so') || {}).summary || {};
+  const parts = [];
+  if (ik.frames) parts.push(`${ik.frames} frames`, `marker RMS ${fmt(1000 * ik.marker_rms_mean_m, 1)} mm`);
+  if (so.frames) parts.push(`SO max violation ${Number(so.max_equality_violation).toExponential(1)} N·m`);
+  return parts.join(' · ');
+}
+async function listView() {
+  app.replaceChildren(h('h1', {}, 'Trials'), h('p', { class: 'muted' }, 'Loading…'));
+  const render = async () => {
+    let data;
+    try { data = await api('/trials?limit=100'); } catch (e) { app.replaceChildren(h('h1', {}, 'Trials'), h('p', { class: 'form-error' }, e.message)); return []; }
+    const rows = data.trials.map((t) => h('tr', { 'data-id': t.id },
+      h('td', {}, h('a', { href: `#/trial/${t.id}` }, t.name)),
+      h('td', {}, h('span', { class: `status ${t.status}` }, t.status)),
+      h('td', {}, t.stages.map(stageCell)),
+      h('td', { class: 'muted' }, metrics(t)),
+      h('td', { class: 'muted' }, new Date(t.created_at).toLocaleString())));
+    app.replaceChildren(
+      h('h1', {}, 'Trials ', h('a', { href: '#/upload' }, h('button', {}, 'Upload a trial'))),
+      h('div', { class: 'card' }, data.trials.length
+        ? h('table', { id: 'trials' }, h('tr', {}, ['Trial', 'Status', 'Stages', 'Key metrics', 'Created'].map((x) => h('th', {}, x))), rows)
+        : h('p', { class: 'muted' }, 'No trials yet. Upload one to start.')));
+    return data.trials;
+  };
+  const trials = await render();
+  // Live progress: Server-Sent Events for unfinished trials (polling when a token is needed,
+  // since EventSource cannot send one).
+  const open = trials.filter((t) => t.status === 'queued' || t.status === 'running');
+  if (!token()) {
+    for (const t of open) {
+      const es = new EventSource(`/api/v1/trials/${t.id}/events`);
+      es.addEventListener('progress', () => scheduleRender());
+      es.addEventListener('end', () => { es.close(); scheduleRender(); });
+      state.cleanups.push(() => es.close());
+    }
+  }
+  let pending = null;
+  function scheduleRender() { if (!pending) pending = setTimeout(async () => { pending = null; await render(); }, 150); }
+  const timer = setInterval(() => { if (token() || open.length === 0) render(); }, 3000);
+  state.cleanups.push(() => clearInterval(timer), () => pending && clearTimeout(pending));
+}
+
+// ---------------------------------------------------------------- upload
+async function uploadView() {
+  let models = [];
+  try { models = (await api('/models')).models; } catch (e) { /* shown below */ }
+  const fieldError = (name) => h('div', { class: 'field-error', 'data-error-for': name });
+  const row = (label, input, name) => h('div', { class: 'row' }, h('label', { for: name }, label), input, fieldError(name));
+  const form = h('form', { id: 'upload' },
+    row('Markers (.trc)', h('input', { type: 'file', id: 'markers', name: 'markers', accept: '.trc', required: true }), 'markers'),
+    row('GRF (.mot)', h('input', { type: 'file', id: 'grf', name: 'grf', accept: '.mot,.sto' }), 'grf'),
+    row('Loads (.xml)', h('input', { type: 'file', id: 'loads', name: 'loads', accept: '.xml' }), 'loads'),
+    row('Model', h('select', { id: 'model', name: 'model' }, models.map((m) => h('option', { value: m.id }, `${m.name} (${m.summary.coordinates} coordinates, ${m.summary.muscles} muscles)`))), 'model'),
+    row('Time range (s)', h('span', {}, h('input', { type: 'number', step: 'any', id: 't0', placeholder: 'start' }), ' – ', h('input', { type: 'number', step: 'any', id: 't1', placeholder: 'end' })), 'time_range'),
+    row('Stages', h('span', {}, ['ik', 'id', 'so'].map((s) => h('label', {}, h('input', { type: 'checkbox', name: 'stage', value: s, checked: true }), ` ${s.toUpperCase()} `))), 'stages'),
+    h('div', { class: 'form-error', id: 'form-error' }),
+    h('button', { type: 'submit' }, 'Upload and run'));
+  const modelUpload = h('form', { id: 'model-upload' },
+    row('Model (.osim)', h('input', { type: 'file', id: 'osim', accept: '.osim', required: true }), 'model-file'),
+    row('Marker set (.xml)', h('input', { type: 'file', id: 'markerset', accept: '.xml' }), 'markerset'),
+    h('button', { type: 'submit', class: 'secondary' }, 'Add model'));
+  app.replaceChildren(h('h1', {}, 'Upload a trial'), h('div', { class: 'card' }, form), h('h2', {}, 'Add a model'), h('div', { class: 'card' }, modelUpload));
+
+  const clearErrors = (f) => f.querySelectorAll('[data-error-for], .form-error').forEach((e) => (e.textContent = ''));
+  const showError = (f, err, partToField) => {
+    const d = err.detail || {};
+    const where = partToField(d);
+    const target = where && f.querySelector(`[data-error-for="${where}"]`);
+    const text = d.line ? `${err.message}` : err.message;
+    (target || f.querySelector('.form-error') || f).textContent = text;
+  };
+  form.addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    clearErrors(form);
+    const fd = new FormData();
+    for (const p of ['markers', 'grf', 'loads']) { const f = form.querySelector('#' + p).files[0]; if (f) fd.append(p, f, f.name); }
+    const options = { model: form.querySelector('#model').value };
+    const t0 = form.querySelector('#t0').value, t1 = form.querySelector('#t1').value;
+    if (t0 !== '' && t1 !== '') options.time_range = [Number(t0), Number(t1)];
+    options.stages = [...form.querySelectorAll('input[name=stage]:checked')].map((c) => c.value);
+    fd.append('options', new Blob([JSON.stringify(options)], { type: 'application/json' }), 'options.json');
+    try {
+      const r = await api('/trials', { method: 'POST', body: fd });
+      location.hash = `#/trial/${r.id}`;
+    } catch (err) {
+      showError(form, err, (d) => (['markers', 'grf', 'loads'].includes(d.part) ? d.part : ['model', 'time_range', 'stages'].includes(d.field) ? d.field : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
+    }
+  });
+  modelUpload.addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    clearErrors(modelUpload);
+    const fd = new FormData();
+    const f = modelUpload.querySelector('#osim').files[0], m = modelUpload.querySelector('#markerset').files[0];
+    if (f) fd.append('model', f, f.name);
+    if (m) fd.append('markerset', m, m.name);
+    try { await api('/models', { method: 'POST', body: fd }); route(); } catch (err) { showError(modelUpload, err, (d) => (d.part === 'markerset' ? 'markerset' : 'model-file')); }
+  });
+}
+
+// ---------------------------------------------------------------- trial review
+function parseMot(text) {
+  const lines = text.split(/\r?\n/);
+  const end = lines.findIndex((l) => l.trim() === 'endheader');
+  const labels = lines[end + 1].trim().split(/\t|\s+/);
+  const rows = lines.slice(end + 2).filter((l) => l.trim()).map((l) => l.trim().split(/\s+/).map(Number));
+  const cols = labels.map((_, c) => rows.map((r) => r[c]));
+  return { labels, columns: cols, inDegrees: !/inDegrees=no/.test(text) };
+}
+const column = (table, label) => table.columns[table.labels.indexOf(label)];
+
+async function trialView(id) {
+  app.replaceChildren(h('p', { class: 'muted' }, 'Loading…'));
+  let trial;
+  try { trial = await api(`/trials/${id}`); } catch (e) { app.replaceChildren(h('p', { class: 'form-error' }, e.message)); return; }
+  const head = h('div', {},
+    h('h1', {}, trial.name, ' ', h('span', { class: `status ${trial.status}` }, trial.status)),
+    h('div', { class: 'card' }, trial.stages.map(stageCell), h('span', { class: 'muted' }, ' ', metrics(trial)),
+      trial.error ? h('p', { class: 'form-error' }, trial.error.message) : null));
+  app.replaceChildren(head);
+  if (trial.status === 'queued' || trial.status === 'running') {
+    const es = new EventSource(`/api/v1/trials/${id}/events`);
+    es.addEventListener('end', () => { es.close(); route(); });
+    es.addEventListener('progress', async () => { try { const t = await api(`/trials/${id}`); head.querySelector('.card').replaceChildren(...t.stages.map(stageCell)); } catch {} });
+    state.cleanups.push(() => es.close());
+    return;
+  }
+  if (trial.status !== 'done') return;
+  const done = (s) => (trial.stages.find((x) => x.name === s) || {}).state === 'done';
+  const [kin, ik, id_, so] = await Promise.all([
+    api(`/trials/${id}/kinematics`), api(`/trials/${id}/results/ik`),
+    done('id') ? api(`/trials/${id}/results/id`) : null, done('so') ? api(`/trials/${id}/results/so`) : null]);
+  const coords = ik.tables[0], errors = ik.tables[1];
+  const time = coords.columns[0];
+  const n = kin.frames.length;
+  let frame = 0, playing = false, speed = 1, last = null, reference = null;
+  window.__cpgait.frames = n;
+
+  // Viewer and playback controls.
+  const viewerBox = h('div', { class: 'viewer', id: 'viewer' });
+  const slider = h('input', { type: 'range', min: 0, max: n - 1, value: 0, id: 'scrub', 'aria-label': 'frame' });
+  const play = h('button', { id: 'play' }, 'Play');
+  const speedSel = h('select', { id: 'speed' }, [0.25, 0.5, 1, 2].map((s) => h('option', { value: s, selected: s === 1 }, `${s}×`)));
+  const clock = h('span', { class: 'muted', id: 'clock' });
+  const legend = h('div', { class: 'legend muted' }, h('span', {}, h('i', { style: 'background:#60a5fa' }), 'model markers'), h('span', {}, h('i', { style: 'background:#fb923c' }), 'measured markers'),
+    h('span', {}, h('i', { style: 'background:#facc15' }), 'centres of mass'), kin.frames[0].grf.length ? h('span', {}, h('i', { style: 'background:#22c55e' }), 'ground reaction force (1 mm/N)') : null);
+  app.append(h('div', { class: 'card' }, viewerBox, h('div', { class: 'controls' }, play, slider, speedSel, clock), legend,
+    h('div', { class: 'muted' }, 'Keys: space plays/pauses, ←/→ step one frame.')));
+  const viewer = new Viewer(viewerBox, kin);
+
+  // Plots.
+  const plotsBox = h('div', { class: 'grid2' });
+  app.append(plotsBox);
+  const card = (title, ...content) => { const c = h('div', { class: 'card' }, h('h2', {}, title), ...content); plotsBox.append(c); return c; };
+  const playhead = () => time[frame];
+  const redrawAll = () => Object.values(window.__cpgait.plots).forEach((p) => p.redraw && p.redraw(false, false));
+
+  // Joint angles, with an optional OpenSim reference .mot from the user.
+  const angleNames = coords.labels.slice(1);
+  const defaults = angleNames.filter((c) => /^(hip_flexion_r|knee_angle_r|ankle_angle_r)$/.test(c));
+  const angleSel = h('select', { multiple: true, id: 'angle-select' }, angleNames.map((c) => h('option', { value: c, selected: defaults.includes(c) || (defaults.length === 0 && angleNames.indexOf(c) < 3) }, c)));
+  const refInput = h('input', { type: 'file', accept: '.mot,.sto', id: 'reference' });
+  const angleBox = h('div', { id: 'plot-angles' });
+  card('Joint angles', h('div', { class: 'controls' }, angleSel, h('label', {}, 'OpenSim reference (.mot): ', refInput)), angleBox);
+  const drawAngles = () => {
+    angleBox.replaceChildren();
+    const chosen = [...angleSel.selectedOptions].map((o) => o.value);
+    const series = chosen.map((c) => ({ label: c, values: column(coords, c) }));
+    if (reference) for (const c of chosen) {
+      const rc = column(reference, c);
+      if (!rc) continue;
+      const rt = reference.columns[0];
+      const values = time.map((t) => { let i = rt.findIndex((x) => x >= t - 1e-9); if (i < 0) return null; const v = rc[i]; return reference.inDegrees ? v : (v * 180) / Math.PI; });
+      series.push({ label: `reference ${c}`, values, dash: [4, 3] });
+    }
+    window.__cpgait.plots.angles = linePlot(angleBox, time, series, 'angle (deg) / translation (m)', playhead);
+  };
+  angleSel.addEventListener('change', drawAngles);
+  refInput.addEventListener('change', async () => { const f = refInput.files[0]; if (f) { reference = parseMot(await f.text()); drawAngles(); } });
+  drawAngles();
+
+  // Marker error per frame.
+  const errBox = h('div', { id: 'plot-marker-error' });
+  card('Marker error', errBox);
+  window.__cpgait.plots.markerError = linePlot(errBox, errors.columns[0],
+    [{ label: 'RMS', values: column(errors, 'marker_error_RMS').map((v) => v * 1000) }, { label: 'max', values: column(errors, 'marker_error_max').map((v) => v * 1000) }],
+    'marker error (mm)', () => errors.columns[0][frame]);
+
+  if (id_) {
+    const idTable = id_.tables[0];
+    const idBox = h('div', { id: 'plot-moments' });
+    card('Joint moments (inverse dynamics)', idBox);
+    const moments = idTable.labels.filter((l) => /^(hip_flexion_r|knee_angle_r|ankle_angle_r)_moment$/.test(l));
+    window.__cpgait.plots.moments = linePlot(idBox, idTable.columns[0], moments.map((l) => ({ label: l, values: column(idTable, l) })), 'moment (N·m)', () => idTable.columns[0][frame]);
+  }
+
+  if (so) {
+    const act = so.tables[0];
+    const muscles = act.labels.slice(1).filter((l) => !/_(reserve|residual)$/.test(l));
+    const cols = muscles.map((m) => column(act, m));
+    const canvas = h('canvas', { class: 'heatmap', id: 'heatmap' });
+    const tip = h('div', { class: 'muted' }, `${muscles.length} muscles (rows, model order) × ${act.rows} frames; white 0 → dark red 1`);
+    const peak = muscles.map((m, i) => [Math.max(...cols[i]), m]).sort((a, b) => b[0] - a[0]);
+    const muscleSel = h('select', { multiple: true, id: 'muscle-select' }, muscles.map((m) => h('option', { value: m, selected: peak.slice(0, 4).some((p) => p[1] === m) }, m)));
+    const curveBox = h('div', { id: 'plot-activations' });
+    card('Muscle activations (static optimization)', canvas, tip, h('div', { class: 'controls' }, muscleSel), curveBox);
+    const heat = heatMap(canvas, muscles, cols, () => {
+      const t = time[frame]; const at = act.columns[0]; let i = 0; while (i + 1 < at.length && at[i + 1] <= t + 1e-9) ++i; return i;
+    });
+    canvas.addEventListener('mousemove', (e) => {
+      const r = canvas.getBoundingClientRect();
+      const row = Math.floor(((e.clientY - r.top) / r.height) * muscles.length);
+      if (muscles[row]) tip.textContent = `${muscles[row]}`;
+    });
+    window.__cpgait.plots.heatmap = heat;
+    const drawCurves = () => {
+      curveBox.replaceChildren();
+      const chosen = [...muscleSel.selectedOptions].map((o) => o.value);
+      window.__cpgait.plots.activations = linePlot(curveBox, act.columns[0], chosen.map((m) => ({ label: m, values: column(act, m) })), 'activation (0–1)', () => act.columns[0][Math.min(frame, act.rows - 1)]);
+    };
+    muscleSel.addEventListener('change', drawCurves);
+    drawCurves();
+  }
+  card('CPG outputs vs fitted excitations', h('p', { class: 'muted' }, 'Not computed for this trial: the CPG stage is not available yet.'));
+  card('Reproduced gait vs measured', h('p', { class: 'muted' }, 'Not computed for this trial: the reproduced-gait stage is not available yet.'));
+  app.append(h('div', { class: 'card files' }, h('h2', {}, 'Result files'), (trial.files || []).map((f) => h('a', { href: `/api/v1/trials/${id}/files/${f}`, download: f }, f))));
+
+  // Playback.
+  const show = (i) => {
+    frame = Math.max(0, Math.min(n - 1, i));
+    slider.value = frame;
+    clock.textContent = `t = ${fmt(time[frame], 3)} s  (frame ${frame + 1}/${n})`;
+    viewer.show(frame);
+    redrawAll();
+    window.__cpgait.frame = frame;
+  };
+  slider.addEventListener('input', () => show(Number(slider.value)));
+  speedSel.addEventListener('change', () => (speed = Number(speedSel.value)));
+  const toggle = () => { playing = !playing; play.textContent = playing ? 'Pause' : 'Play'; last = null; };
+  play.addEventListener('click', toggle);
+  let tPlay = time[0];
+  const tick = (now) => {
+    if (playing) {
+      if (last != null) {
+        tPlay += (speed * (now - last)) / 1000;
+        if (tPlay > time[n - 1]) tPlay = time[0];
+        let i = frame; while (i + 1 < n && time[i + 1] <= tPlay) ++i; if (time[i] > tPlay) i = 0; while (i + 1 < n && time[i + 1] <= tPlay) ++i;
+        if (i !== frame) show(i);
+      }
+      last = now;
+    } else tPlay = time[frame];
+    raf = requestAnimationFrame(tick);
+  };
+  let raf = requestAnimationFrame(tick);
+  const onKey = (e) => {
+    if (e.target.tagName === 'INPUT' || e.target.tagName === 'SELECT') return;
+    if (e.code === 'Space') { e.preventDefault(); toggle(); }
+    if (e.code === 'ArrowRight') { e.preventDefault(); show(frame + 1); }
+    if (e.code === 'ArrowLeft') { e.preventDefault(); show(frame - 1); }
+  };
+  window.addEventListener('keydown', onKey);
+  state.cleanups.push(() => cancelAnimationFrame(raf), () => window.removeEventListener('keydown', onKey));
+  window.__cpgait.setFrame = show;
+  show(0);
+  window.__cpgait.ready = true;
+}
+
+route();
