@@ -465,7 +465,17 @@ int serve(const ServerOptions& o) {
   Api api(o, store, events, metrics, jobs);
   api.install(server);
 
+  // httplib 0.11 listens with a backlog of 5, compiled into Debian's library: a burst of uploads
+  // would see refused or retried connections. It hands us the listening socket before binding;
+  // listen() again after binding raises the backlog.
+  int listen_fd = -1;
+  server.set_socket_options([&listen_fd](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    listen_fd = sock;
+  });
   const int port = o.port == 0 ? server.bind_to_any_port(o.host) : (server.bind_to_port(o.host, o.port) ? o.port : -1);
+  if (port >= 0 && listen_fd >= 0) ::listen(listen_fd, 1024);
   if (port < 0) {
     std::fprintf(stderr, "error: cannot listen on %s:%d (in use?)\n", o.host.c_str(), o.port);
     return 1;

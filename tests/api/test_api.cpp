@@ -368,16 +368,20 @@ TEST(ApiReference, FiftyConcurrentUploads) {
   form.push_back({"loads", slurp(pl + "subject01_walk1_grf.xml"), "subject01_walk1_grf.xml", ""});
 
   const auto start = std::chrono::steady_clock::now();
-  std::vector<std::string> ids(50);
+  std::vector<std::string> ids(50), failures(50);
   std::vector<std::thread> uploaders;
   for (int i = 0; i < 50; ++i)
     uploaders.emplace_back([&, i] {
       httplib::Client ci("127.0.0.1", server.port());
       ci.set_read_timeout(60, 0);
+      ci.set_write_timeout(60, 0);
+      ci.set_connection_timeout(10, 0);
       auto r = ci.Post("/api/v1/trials", form);
       if (r && r->status == 202) ids[i] = json::parse(r->body)["id"];
+      else failures[i] = r ? std::to_string(r->status) + " " + r->body : "transport error " + httplib::to_string(r.error());
     });
   for (auto& t : uploaders) t.join();
+  for (const auto& f : failures) EXPECT_TRUE(f.empty()) << f;
   ASSERT_EQ(std::count_if(ids.begin(), ids.end(), [](const std::string& s) { return !s.empty(); }), 50);
   // Poll every trial while they run; keep the latencies.
   std::vector<double> latency_ms;
