@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "cpgait/activation/static_optimization.h"
+#include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/model/osim_reader.h"
 #include "test_support.h"
 
@@ -108,4 +109,38 @@ TEST(SoGait2392, TutorialMomentEqualityAndReport) {
   for (const auto& [rms, name] : c.muscles) within += rms < 0.03;
   std::printf("[ info ] tutorial: %d of %zu muscles (reference peak > 0.05) within 0.03 RMS\n", within, c.muscles.size());
   print(c, "OpenSim tutorial");
+}
+
+// The CPG issue's acceptance 3: a network fitted to subject01's static-optimization activations over
+// the right gait cycle (heel strikes from the right plate's vertical force).
+TEST(CpgGait2392, FitsSubject01Activations) {
+  const std::string pl = refdata::gait2392("pipeline/");
+  const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
+  for (const auto& p : {pl + "subject01_walk1_grf.mot", ik}) REQUIRE_REFERENCE(p);
+  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
+  const ResolvedActuators acts(m, read_actuators(pl + "gait2392_SO_weak_Residual_Actuators.xml"));
+  const Storage grf = read_storage(pl + "subject01_walk1_grf.mot");
+  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), grf);
+  StaticOptimizationOptions o;
+  o.lowpass_cutoff_hz = 6;
+  const StaticOptimizationResult so = static_optimization(m, read_storage(ik), &loads, acts, o);
+  const std::vector<double> strikes = contact_onsets(grf.time(), grf.data.col(grf.column("ground_force_vy")));
+  ASSERT_GE(strikes.size(), 2u);
+  const int nm = static_cast<int>(m.muscles.size());
+  const Eigen::MatrixXd cycle = cycle_average(so.time_s, so.controls.leftCols(nm), strikes, 100);
+  std::vector<std::string> names(so.names.begin(), so.names.begin() + nm);
+  double cycle_s = 0;
+  for (std::size_t k = 0; k + 1 < strikes.size(); ++k)
+    if (strikes[k] >= so.time_s.front() && strikes[k + 1] <= so.time_s.back()) cycle_s = strikes[k + 1] - strikes[k];
+  CpgFitOptions fo;
+  const CpgFitResult r = fit_cpg(cycle, cycle_s, names, fo);
+  std::printf("[ info ] subject01 right cycle %.3f s: %s\n", cycle_s, r.summary.BriefReport().c_str());
+  std::vector<std::pair<double, std::string>> worst;
+  for (int k = 0; k < nm; ++k)
+    if (cycle.col(k).maxCoeff() > fo.active_threshold) worst.push_back({r.summary.r_squared[k], names[k]});
+  std::sort(worst.begin(), worst.end());
+  for (std::size_t i = 0; i < std::min<std::size_t>(5, worst.size()); ++i)
+    std::printf("[ info ] lowest R^2 %zu: %-14s %.3f\n", i + 1, worst[i].second.c_str(), worst[i].first);
+  EXPECT_GT(r.summary.active_muscles, 40);
+  EXPECT_TRUE(std::isfinite(r.summary.mean_r_squared_active));
 }

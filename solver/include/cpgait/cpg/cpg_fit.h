@@ -1,0 +1,92 @@
+#pragma once
+// Fitting a Matsuoka network to muscle patterns over a gait cycle, and running it.
+//
+// The network is K mutually inhibiting pairs with inhibitory couplings between pairs; each muscle's
+// excitation is a non-negative combination of the neurons' outputs plus a non-negative bias. For a
+// given network the output map is exact (non-negative least squares per muscle), so Ceres only
+// searches the network's dimensionless parameters (adaptation/rise time ratio, adaptation, mutual
+// inhibition, tonic inputs, couplings) and the pattern's phase, from several starts; the time
+// constants are then scaled so that the network's period equals the gait cycle.
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "cpgait/cpg/matsuoka.h"
+
+namespace cpgait {
+
+struct CpgModel {
+  MatsuokaNetwork network;              // time constants in seconds, fitted period = cycle_s
+  Eigen::MatrixXd output_map;           // muscles x neurons, >= 0
+  Eigen::VectorXd output_bias;          // per muscle, >= 0
+  std::vector<std::string> muscle_names;
+  double cycle_s = 1.0;                 // the gait cycle it reproduces at speed 1
+  double phase_at_start = 0.0;          // cycle phase (0-1) of the network's state `start`
+  MatsuokaState start;                  // a state on the limit cycle
+  // Knobs: speed scales all rates (cycle time / speed); amplitude scales the excitations.
+  double speed = 1.0;
+  double amplitude = 1.0;
+  // Feedback: neuron input u = feedback_gains * signals (joint angles in rad, foot contact 0/1).
+  std::vector<std::string> feedback_signals;
+  Eigen::MatrixXd feedback_gains;       // neurons x signals
+
+  nlohmann::json to_json() const;
+  // Throws InputError naming the JSON field.
+  static CpgModel from_json(const nlohmann::json& j, const std::string& source);
+};
+
+struct CpgFitOptions {
+  int pairs = 2;               // oscillator pairs (2 K neurons)
+  int starts = 8;              // optimisation starts (the first is Matsuoka's classic pair)
+  int phase_samples = 100;     // samples per cycle of the target patterns
+  int max_iterations = 100;    // Ceres iterations per start
+  double active_threshold = 0.05;  // muscles whose peak exceeds this count in the mean R^2
+  unsigned seed = 1;
+};
+
+struct CpgFitSummary {
+  Eigen::VectorXd r_squared;   // per muscle
+  double mean_r_squared_active = 0;
+  int active_muscles = 0;
+  double seconds = 0;
+  int best_start = 0;
+  std::string BriefReport() const;
+};
+
+struct CpgFitResult {
+  CpgModel model;
+  Eigen::MatrixXd target;      // phase_samples x muscles (the cycle-averaged patterns)
+  Eigen::MatrixXd fitted;      // the same, from the fitted network
+  CpgFitSummary summary;
+};
+
+// Times (s) where a force column rises through threshold_N: heel strikes from a force plate's
+// vertical force.
+std::vector<double> contact_onsets(const Eigen::VectorXd& time_s, const Eigen::VectorXd& force_N, double threshold_N = 20.0);
+
+// Averages patterns (samples x muscles at `time`) over the cycles between consecutive cycle starts
+// (heel strikes), resampled to `samples` phases. Throws InputError with fewer than two starts
+// inside the data.
+Eigen::MatrixXd cycle_average(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
+                              const std::vector<double>& cycle_starts_s, int samples);
+
+CpgFitResult fit_cpg(const Eigen::MatrixXd& cycle_patterns, double cycle_s, const std::vector<std::string>& muscle_names,
+                     const CpgFitOptions& options = {});
+
+// Runs the model for duration_s from its start state: neuron outputs (steps x neurons) and muscle
+// excitations (steps x muscles, clamped to [0, 1]) at times k * dt_s. feedback: steps x signals, or empty.
+struct CpgRun {
+  std::vector<double> time_s;
+  Eigen::MatrixXd neurons, excitations;
+};
+CpgRun run_cpg(const CpgModel& model, double duration_s, double dt_s, const Eigen::MatrixXd& feedback = Eigen::MatrixXd());
+
+// A smooth change from model a to model b (same structure) over [t0, t1]: parameters blend with a
+// cosine ramp, e.g. walk -> faster walk, walk -> stand (amplitude 0).
+CpgRun run_cpg_transition(const CpgModel& a, const CpgModel& b, double t0_s, double t1_s, double duration_s, double dt_s);
+
+// The coefficient of determination of y against its fit.
+double r_squared(const Eigen::VectorXd& y, const Eigen::VectorXd& fit);
+
+}  // namespace cpgait

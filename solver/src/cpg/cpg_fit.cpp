@@ -1,0 +1,418 @@
+#include "cpgait/cpg/cpg_fit.h"
+
+#include <ceres/ceres.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/optim/nnls.h"
+
+namespace cpgait {
+namespace {
+
+constexpr int kFinePhases = 400;  // samples of the network's limit cycle
+
+// The searched parameters, all dimensionless (Tr = 1): [Ta/Tr, b, a, s_0..s_{N-1}, cross couplings
+// (i, j) for neurons of different pairs, row by row], then the pattern's phase in the cycle.
+struct Layout {
+  int pairs, neurons, n_cross, size;
+  explicit Layout(int k) : pairs(k), neurons(2 * k), n_cross(2 * k * (2 * k - 2)), size(3 + 2 * k + 2 * k * (2 * k - 2) + 1) {}
+  int phase() const { return size - 1; }
+};
+
+MatsuokaNetwork network_from(const Layout& L, const double* p) {
+  MatsuokaNetwork n;
+  const int N = L.neurons;
+  n.tau_r_s = Eigen::VectorXd::Ones(N);
+  n.tau_a_s = Eigen::VectorXd::Constant(N, p[0]);
+  n.b = Eigen::VectorXd::Constant(N, p[1]);
+  n.s = Eigen::Map<const Eigen::VectorXd>(p + 3, N);
+  n.a = Eigen::MatrixXd::Zero(N, N);
+  int k = 3 + N;
+  for (int i = 0; i < N; ++i)
+    for (int j = 0; j < N; ++j) {
+      if (i == j) continue;
+      n.a(i, j) = (i / 2 == j / 2) ? p[2] : p[k++];
+    }
+  return n;
+}
+
+// One period of the network's limit cycle, sampled at kFinePhases phases from an upward crossing of
+// neuron 0's mean output; false when it does not settle into oscillation.
+struct LimitCycle {
+  double period = 0;  // in units of Tr
+  Eigen::MatrixXd outputs;            // kFinePhases x neurons
+  std::vector<MatsuokaState> states;  // at each sampled phase
+};
+
+bool limit_cycle(const MatsuokaNetwork& n, LimitCycle& out) {
+  const double w = matsuoka_natural_frequency(1.0, n.tau_a_s[0], n.b[0], std::max(n.a(0, 1), 1e-3));
+  const double T_est = w > 0 ? 2 * M_PI / w : 10 * n.tau_a_s[0];
+  const double dt = std::min(T_est / 200.0, 0.05);
+  MatsuokaState st = MatsuokaState::resting(n);
+  MatsuokaScratch scratch;
+  const Eigen::VectorXd none;
+  const int transient = static_cast<int>(std::min(6.0 * T_est / dt, 20000.0));
+  for (int i = 0; i < transient; ++i) matsuoka_step(n, st, dt, none, scratch);
+  const int steps = static_cast<int>(std::min(3.5 * T_est / dt, 20000.0));
+  std::vector<MatsuokaState> states(steps);
+  Eigen::MatrixXd y(steps, n.size());
+  for (int i = 0; i < steps; ++i) {
+    matsuoka_step(n, st, dt, none, scratch);
+    y.row(i) = st.x.cwiseMax(0.0).transpose();
+    states[i] = st;
+  }
+  const Eigen::VectorXd y0 = y.col(0);
+  if (y0.maxCoeff() - y0.minCoeff() < 1e-3) return false;
+  const double mean = y0.mean();
+  std::vector<double> up;
+  for (int i = 1; i < steps; ++i)
+    if (y0[i - 1] < mean && y0[i] >= mean) up.push_back(i - 1 + (mean - y0[i - 1]) / (y0[i] - y0[i - 1]));
+  if (up.size() < 3) return false;
+  const double start = up[up.size() - 3], period_steps = up[up.size() - 2] - start;
+  const double p2 = up[up.size() - 1] - up[up.size() - 2];
+  if (std::abs(p2 - period_steps) > 0.02 * period_steps) return false;  // not settled (or not periodic)
+  out.period = period_steps * dt;
+  out.outputs.resize(kFinePhases, n.size());
+  out.states.resize(kFinePhases);
+  for (int k = 0; k < kFinePhases; ++k) {
+    const double pos = start + period_steps * k / kFinePhases;
+    const int i = std::min(static_cast<int>(pos), steps - 2);
+    const double a = pos - i;
+    out.outputs.row(k) = (1 - a) * y.row(i) + a * y.row(i + 1);
+    out.states[k] = a < 0.5 ? states[i] : states[i + 1];
+  }
+  return true;
+}
+
+// The network's outputs at the target's phases, shifted by `phase` (fraction of a cycle).
+Eigen::MatrixXd at_phases(const LimitCycle& c, int samples, double phase) {
+  Eigen::MatrixXd Y(samples, c.outputs.cols());
+  for (int k = 0; k < samples; ++k) {
+    double ph = std::fmod(static_cast<double>(k) / samples + phase, 1.0);
+    if (ph < 0) ph += 1.0;
+    const double pos = ph * kFinePhases;
+    const int i = static_cast<int>(pos) % kFinePhases, j = (i + 1) % kFinePhases;
+    const double a = pos - std::floor(pos);
+    Y.row(k) = (1 - a) * c.outputs.row(i) + a * c.outputs.row(j);
+  }
+  return Y;
+}
+
+// Exact non-negative output map and bias for given outputs; returns the fitted patterns.
+Eigen::MatrixXd best_map(const Eigen::MatrixXd& Y, const Eigen::MatrixXd& target, Eigen::MatrixXd* map, Eigen::VectorXd* bias) {
+  Eigen::MatrixXd design(Y.rows(), Y.cols() + 1);
+  design << Y, Eigen::VectorXd::Ones(Y.rows());
+  Eigen::MatrixXd fitted(target.rows(), target.cols());
+  if (map) map->resize(target.cols(), Y.cols());
+  if (bias) bias->resize(target.cols());
+  for (Eigen::Index m = 0; m < target.cols(); ++m) {
+    const Eigen::VectorXd w = nnls(design, target.col(m));
+    fitted.col(m) = design * w;
+    if (map) map->row(m) = w.head(Y.cols()).transpose();
+    if (bias) (*bias)[m] = w[Y.cols()];
+  }
+  return fitted;
+}
+
+struct PatternResidual {
+  Layout layout;
+  const Eigen::MatrixXd* target;
+  bool operator()(double const* const* p, double* residuals) const {
+    Eigen::Map<Eigen::MatrixXd> r(residuals, target->rows(), target->cols());
+    LimitCycle c;
+    if (!limit_cycle(network_from(layout, p[0]), c)) {
+      r = *target;  // no oscillation: nothing explained
+      return true;
+    }
+    r = *target - best_map(at_phases(c, static_cast<int>(target->rows()), p[0][layout.phase()]), *target, nullptr, nullptr);
+    return true;
+  }
+};
+
+void set_bounds(ceres::Problem& problem, double* p, const Layout& L) {
+  auto bound = [&](int i, double lo, double hi) {
+    problem.SetParameterLowerBound(p, i, lo);
+    problem.SetParameterUpperBound(p, i, hi);
+  };
+  bound(0, 1.5, 40.0);  // Ta / Tr
+  bound(1, 0.3, 10.0);  // b
+  bound(2, 0.3, 6.0);   // a within a pair
+  for (int i = 0; i < L.neurons; ++i) bound(3 + i, 0.2, 10.0);
+  for (int i = 0; i < L.n_cross; ++i) bound(3 + L.neurons + i, 0.0, 4.0);
+  bound(L.phase(), -1.0, 2.0);  // periodic: starts spread it over the cycle
+}
+
+}  // namespace
+
+double r_squared(const Eigen::VectorXd& y, const Eigen::VectorXd& fit) {
+  const double ss_tot = (y.array() - y.mean()).square().sum();
+  const double ss_res = (y - fit).squaredNorm();
+  return ss_tot > 0 ? 1.0 - ss_res / ss_tot : (ss_res == 0 ? 1.0 : 0.0);
+}
+
+std::vector<double> contact_onsets(const Eigen::VectorXd& time, const Eigen::VectorXd& force, double threshold) {
+  std::vector<double> out;
+  for (Eigen::Index i = 1; i < force.size(); ++i)
+    if (force[i - 1] < threshold && force[i] >= threshold)
+      out.push_back(time[i - 1] + (threshold - force[i - 1]) / (force[i] - force[i - 1]) * (time[i] - time[i - 1]));
+  return out;
+}
+
+Eigen::MatrixXd cycle_average(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
+                              const std::vector<double>& starts, int samples) {
+  std::vector<std::pair<double, double>> cycles;
+  for (std::size_t k = 0; k + 1 < starts.size(); ++k)
+    if (starts[k] >= time.front() - 1e-9 && starts[k + 1] <= time.back() + 1e-9) cycles.push_back({starts[k], starts[k + 1]});
+  if (cycles.empty())
+    throw InputError("gait cycles", 0, "cycle_starts", "no full gait cycle (two heel strikes) lies inside the patterns' time range");
+  Eigen::MatrixXd avg = Eigen::MatrixXd::Zero(samples, patterns.cols());
+  for (const auto& [t0, t1] : cycles)
+    for (int k = 0; k < samples; ++k) {
+      const double t = t0 + (t1 - t0) * k / samples;
+      const std::size_t i = std::min<std::size_t>(std::upper_bound(time.begin(), time.end(), t) - time.begin(), time.size() - 1);
+      const std::size_t i0 = i == 0 ? 0 : i - 1;
+      const double a = time[i] > time[i0] ? std::clamp((t - time[i0]) / (time[i] - time[i0]), 0.0, 1.0) : 0.0;
+      avg.row(k) += (1 - a) * patterns.row(static_cast<Eigen::Index>(i0)) + a * patterns.row(static_cast<Eigen::Index>(i));
+    }
+  return avg / static_cast<double>(cycles.size());
+}
+
+CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::vector<std::string>& names, const CpgFitOptions& o) {
+  const auto start_time = std::chrono::steady_clock::now();
+  const Layout L(o.pairs);
+  std::mt19937 rng(o.seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<double> best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  CpgFitResult result;
+  // Starting points first (deterministic for a seed), then the starts run on all cores.
+  std::vector<std::vector<double>> starts(o.starts, std::vector<double>(L.size));
+  for (int start = 0; start < o.starts; ++start) {
+    auto& p = starts[start];
+    // Start 0: Matsuoka's classic pair (Ta/Tr 10, b 2.5, a 1.5, s 5) with weak couplings; the
+    // others random within the bounds.
+    const bool classic = start == 0;
+    p[0] = classic ? 10.0 : 3.0 + 17.0 * u(rng);
+    p[1] = classic ? 2.5 : 1.0 + 4.0 * u(rng);
+    p[2] = classic ? 1.5 : 0.8 + 2.0 * u(rng);
+    for (int i = 0; i < L.neurons; ++i) p[3 + i] = classic ? 5.0 : 1.0 + 6.0 * u(rng);
+    for (int i = 0; i < L.n_cross; ++i) p[3 + L.neurons + i] = classic ? 0.3 : 1.5 * u(rng);
+    p[L.phase()] = static_cast<double>(start % 4) / 4.0;
+  }
+  std::vector<double> costs(o.starts, std::numeric_limits<double>::infinity());
+  auto solve = [&](int start) {
+    auto& p = starts[start];
+    ceres::Problem problem;
+    // The residual goes through a simulation and a period detection: a relative step of 1e-4 keeps
+    // the differences above their discretisation noise (Ceres' default 1e-6 does not).
+    ceres::NumericDiffOptions nd;
+    nd.relative_step_size = 1e-4;
+    auto* cost = new ceres::DynamicNumericDiffCostFunction<PatternResidual, ceres::CENTRAL>(new PatternResidual{L, &target},
+                                                                                            ceres::TAKE_OWNERSHIP, nd);
+    cost->AddParameterBlock(L.size);
+    cost->SetNumResiduals(static_cast<int>(target.size()));
+    problem.AddResidualBlock(cost, nullptr, p.data());
+    set_bounds(problem, p.data(), L);
+    ceres::Solver::Options so;
+    so.max_num_iterations = o.max_iterations;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.logging_type = ceres::SILENT;
+    so.function_tolerance = 1e-10;
+    so.num_threads = 1;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    costs[start] = summary.final_cost;
+  };
+  {
+    const int threads = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(), static_cast<unsigned>(o.starts)));
+    std::atomic<int> next{0};
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t)
+      pool.emplace_back([&] {
+        for (int k; (k = next++) < o.starts;) solve(k);
+      });
+    for (auto& t : pool) t.join();
+  }
+  for (int start = 0; start < o.starts; ++start)
+    if (costs[start] < best_cost) best_cost = costs[start], best = starts[start], result.summary.best_start = start;
+  // The model: network in seconds (period = cycle), exact map, state at the cycle's start.
+  LimitCycle c;
+  const MatsuokaNetwork unit = network_from(L, best.data());
+  if (!limit_cycle(unit, c)) throw std::runtime_error("fit_cpg: no oscillating network found");
+  CpgModel& m = result.model;
+  const double scale = cycle_s / c.period;
+  m.network = unit;
+  m.network.tau_r_s *= scale;
+  m.network.tau_a_s *= scale;
+  m.cycle_s = cycle_s;
+  m.muscle_names = names;
+  double ph = std::fmod(best[L.phase()], 1.0);
+  if (ph < 0) ph += 1.0;
+  const Eigen::MatrixXd Y = at_phases(c, static_cast<int>(target.rows()), ph);
+  result.fitted = best_map(Y, target, &m.output_map, &m.output_bias);
+  result.target = target;
+  m.start = c.states[static_cast<int>(ph * kFinePhases) % kFinePhases];
+  m.feedback_gains = Eigen::MatrixXd::Zero(m.network.size(), 0);
+  // Quality.
+  auto& s = result.summary;
+  s.r_squared.resize(target.cols());
+  double sum = 0;
+  for (Eigen::Index k = 0; k < target.cols(); ++k) {
+    s.r_squared[k] = r_squared(target.col(k), result.fitted.col(k));
+    if (target.col(k).maxCoeff() > o.active_threshold) sum += s.r_squared[k], ++s.active_muscles;
+  }
+  s.mean_r_squared_active = s.active_muscles ? sum / s.active_muscles : 0;
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  return result;
+}
+
+std::string CpgFitSummary::BriefReport() const {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "CPG fit: mean R^2 %.4f over %d active muscles, best of start %d, %.2f s", mean_r_squared_active,
+                active_muscles, best_start, seconds);
+  return buf;
+}
+
+namespace {
+
+Eigen::VectorXd excitation(const CpgModel& m, const Eigen::VectorXd& y) {
+  return (m.amplitude * (m.output_map * y + m.output_bias)).cwiseMax(0.0).cwiseMin(1.0);
+}
+
+MatsuokaNetwork at_speed(const CpgModel& m) {
+  MatsuokaNetwork n = m.network;
+  n.tau_r_s /= m.speed;
+  n.tau_a_s /= m.speed;
+  return n;
+}
+
+}  // namespace
+
+CpgRun run_cpg(const CpgModel& m, double duration_s, double dt, const Eigen::MatrixXd& feedback) {
+  CpgRun r;
+  const int steps = static_cast<int>(std::lround(duration_s / dt));
+  const MatsuokaNetwork n = at_speed(m);
+  MatsuokaState st = m.start;
+  Eigen::MatrixXd input;
+  if (feedback.rows() > 0) {
+    if (feedback.cols() != m.feedback_gains.cols())
+      throw InputError("cpg run", 0, "feedback", "feedback has " + std::to_string(feedback.cols()) + " signals, the model's gains " +
+                                                   std::to_string(m.feedback_gains.cols()));
+    input = feedback * m.feedback_gains.transpose();
+  }
+  r.neurons = simulate_matsuoka(n, st, dt, steps, input);
+  r.excitations.resize(steps, m.output_map.rows());
+  for (int i = 0; i < steps; ++i) {
+    r.time_s.push_back((i + 1) * dt);
+    r.excitations.row(i) = excitation(m, r.neurons.row(i).transpose()).transpose();
+  }
+  return r;
+}
+
+CpgRun run_cpg_transition(const CpgModel& a, const CpgModel& b, double t0, double t1, double duration_s, double dt) {
+  if (a.network.size() != b.network.size() || a.output_map.rows() != b.output_map.rows())
+    throw InputError("cpg transition", 0, "models", "the two models differ in neurons or muscles");
+  CpgRun r;
+  const int steps = static_cast<int>(std::lround(duration_s / dt));
+  MatsuokaState st = a.start;
+  r.neurons.resize(steps, a.network.size());
+  r.excitations.resize(steps, a.output_map.rows());
+  for (int i = 0; i < steps; ++i) {
+    const double t = i * dt;
+    const double w = t <= t0 ? 0.0 : t >= t1 ? 1.0 : 0.5 - 0.5 * std::cos(M_PI * (t - t0) / (t1 - t0));
+    CpgModel m = a;
+    const MatsuokaNetwork na = at_speed(a), nb = at_speed(b);
+    m.speed = 1.0;
+    m.network.tau_r_s = (1 - w) * na.tau_r_s + w * nb.tau_r_s;
+    m.network.tau_a_s = (1 - w) * na.tau_a_s + w * nb.tau_a_s;
+    m.network.b = (1 - w) * na.b + w * nb.b;
+    m.network.s = (1 - w) * na.s + w * nb.s;
+    m.network.a = (1 - w) * na.a + w * nb.a;
+    m.output_map = (1 - w) * a.output_map + w * b.output_map;
+    m.output_bias = (1 - w) * a.output_bias + w * b.output_bias;
+    m.amplitude = (1 - w) * a.amplitude + w * b.amplitude;
+    r.neurons.row(i) = simulate_matsuoka(m.network, st, dt, 1).row(0);
+    r.excitations.row(i) = excitation(m, r.neurons.row(i).transpose()).transpose();
+    r.time_s.push_back((i + 1) * dt);
+  }
+  return r;
+}
+
+nlohmann::json CpgModel::to_json() const {
+  auto vec = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
+  auto mat = [&](const Eigen::MatrixXd& M) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (Eigen::Index i = 0; i < M.rows(); ++i) rows.push_back(vec(M.row(i).transpose()));
+    return rows;
+  };
+  return {{"schema", "cpgait.cpg/1"},
+          {"network", {{"tau_r_s", vec(network.tau_r_s)}, {"tau_a_s", vec(network.tau_a_s)}, {"b", vec(network.b)},
+                       {"s", vec(network.s)}, {"a", mat(network.a)}}},
+          {"start", {{"x", vec(start.x)}, {"f", vec(start.f)}}},
+          {"cycle_s", cycle_s},
+          {"speed", speed},
+          {"amplitude", amplitude},
+          {"muscles", muscle_names},
+          {"output_map", mat(output_map)},
+          {"output_bias", vec(output_bias)},
+          {"feedback", {{"signals", feedback_signals}, {"gains", mat(feedback_gains)}}}};
+}
+
+CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source) {
+  auto fail = [&](const std::string& field, const std::string& msg) { throw InputError(source, 0, field, msg); };
+  auto vec = [&](const nlohmann::json& v, const std::string& field, Eigen::Index n) {
+    if (!v.is_array() || (n >= 0 && static_cast<Eigen::Index>(v.size()) != n)) fail(field, "expected an array of " + std::to_string(n) + " numbers");
+    Eigen::VectorXd out(v.size());
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      if (!v[i].is_number()) fail(field, "expected numbers");
+      out[static_cast<Eigen::Index>(i)] = v[i].get<double>();
+    }
+    return out;
+  };
+  auto mat = [&](const nlohmann::json& v, const std::string& field, Eigen::Index rows, Eigen::Index cols) {
+    if (!v.is_array() || static_cast<Eigen::Index>(v.size()) != rows) fail(field, "expected " + std::to_string(rows) + " rows");
+    Eigen::MatrixXd out(rows, cols);
+    for (Eigen::Index i = 0; i < rows; ++i) out.row(i) = vec(v[i], field, cols).transpose();
+    return out;
+  };
+  try {
+    CpgModel m;
+    const auto& n = j.at("network");
+    m.network.s = vec(n.at("s"), "network.s", -1);
+    const Eigen::Index N = m.network.s.size();
+    m.network.tau_r_s = vec(n.at("tau_r_s"), "network.tau_r_s", N);
+    m.network.tau_a_s = vec(n.at("tau_a_s"), "network.tau_a_s", N);
+    m.network.b = vec(n.at("b"), "network.b", N);
+    m.network.a = mat(n.at("a"), "network.a", N, N);
+    if ((m.network.tau_r_s.array() <= 0).any() || (m.network.tau_a_s.array() <= 0).any()) fail("network.tau", "time constants must be positive");
+    m.start.x = vec(j.at("start").at("x"), "start.x", N);
+    m.start.f = vec(j.at("start").at("f"), "start.f", N);
+    m.cycle_s = j.value("cycle_s", 1.0);
+    m.speed = j.value("speed", 1.0);
+    m.amplitude = j.value("amplitude", 1.0);
+    if (!(m.speed > 0)) fail("speed", "must be positive");
+    m.muscle_names = j.at("muscles").get<std::vector<std::string>>();
+    const Eigen::Index M = static_cast<Eigen::Index>(m.muscle_names.size());
+    m.output_map = mat(j.at("output_map"), "output_map", M, N);
+    m.output_bias = vec(j.at("output_bias"), "output_bias", M);
+    if ((m.output_map.array() < 0).any() || (m.output_bias.array() < 0).any()) fail("output_map", "weights must be non-negative");
+    if (j.contains("feedback")) {
+      m.feedback_signals = j["feedback"].value("signals", std::vector<std::string>{});
+      m.feedback_gains = m.feedback_signals.empty() ? Eigen::MatrixXd::Zero(N, 0)
+                                                    : mat(j["feedback"].at("gains"), "feedback.gains", N, static_cast<Eigen::Index>(m.feedback_signals.size()));
+    } else {
+      m.feedback_gains = Eigen::MatrixXd::Zero(N, 0);
+    }
+    return m;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(source, 0, "", std::string("unexpected CPG JSON shape: ") + e.what());
+  }
+}
+
+}  // namespace cpgait

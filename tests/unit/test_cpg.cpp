@@ -1,0 +1,152 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "cpgait/activation/static_optimization.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/cpg/matsuoka.h"
+#include "cpgait/ik/inverse_kinematics.h"
+#include "cpgait/model/osim_reader.h"
+#include "cpgait/optim/nnls.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+// Acceptance 1 of the CPG issue: the paper's two-neuron oscillator (s 5, Tr 1, Ta 10, b 2.5,
+// a12 = a21 = 1.5) alternates periodically, with a period within 5 % of Matsuoka's estimate.
+TEST(Matsuoka, PapersTwoNeuronOscillatorMatchesTheAnalyticPeriod) {
+  const MatsuokaNetwork n = MatsuokaNetwork::pair(5.0, 1.0, 10.0, 2.5, 1.5, 1.5);
+  MatsuokaState st = MatsuokaState::resting(n);
+  const double dt = 0.01;
+  const Eigen::MatrixXd y = simulate_matsuoka(n, st, dt, 40000);
+  const double simulated = oscillation_period(y.col(0), dt, 10000);
+  const double analytic = 2 * M_PI / matsuoka_natural_frequency(1.0, 10.0, 2.5, 1.5);
+  EXPECT_NEAR(analytic, 15.09, 0.01);
+  EXPECT_NEAR(simulated / analytic, 1.0, 0.05) << "simulated " << simulated << " s, analytic " << analytic << " s";
+  std::printf("[ info ] two-neuron oscillator: simulated period %.3f s, Matsuoka's estimate %.3f s (%+.1f %%)\n", simulated, analytic,
+              100 * (simulated / analytic - 1));
+  // Alternation: the two outputs are mostly active at different times and, over whole periods,
+  // equally strong.
+  const Eigen::MatrixXd tail = y.bottomRows(static_cast<Eigen::Index>(std::lround(12 * simulated / dt)));
+  EXPECT_NEAR(oscillation_period(tail.col(1), dt), simulated, 0.02 * simulated);
+  const double both = (tail.col(0).array() > 0.1 && tail.col(1).array() > 0.1).cast<double>().mean();
+  EXPECT_LT(both, 0.3);
+  EXPECT_NEAR(tail.col(0).mean(), tail.col(1).mean(), 0.01 * tail.col(0).mean());
+}
+
+TEST(Nnls, MatchesKktConditions) {
+  std::mt19937 rng(4);
+  std::normal_distribution<double> g;
+  for (int t = 0; t < 50; ++t) {
+    const Eigen::MatrixXd A = Eigen::MatrixXd::NullaryExpr(30, 6, [&] { return g(rng); });
+    const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(30, [&] { return g(rng); });
+    const Eigen::VectorXd x = nnls(A, b);
+    const Eigen::VectorXd grad = A.transpose() * (A * x - b);
+    for (int j = 0; j < 6; ++j) {
+      ASSERT_GE(x[j], 0.0);
+      if (x[j] > 1e-10) EXPECT_NEAR(grad[j], 0.0, 1e-8);  // free: stationary
+      else EXPECT_GE(grad[j], -1e-8);                       // at zero: would not decrease
+    }
+  }
+}
+
+namespace {
+
+// Patterns over one cycle produced by a known network and output map.
+Eigen::MatrixXd patterns_of(const CpgModel& m, int samples, double& period) {
+  const double dt = 0.001;
+  const CpgRun r = run_cpg(m, 60.0 * m.network.tau_a_s.maxCoeff(), dt);
+  period = oscillation_period(r.neurons.col(0), dt, static_cast<int>(r.neurons.rows() / 2));
+  const double per = period / dt, end = static_cast<double>(r.neurons.rows() - 1);
+  Eigen::MatrixXd out(samples, r.excitations.cols());
+  for (int k = 0; k < samples; ++k) {
+    const double pos = end - per + per * k / samples;
+    const int i = static_cast<int>(pos);
+    out.row(k) = (1 - (pos - i)) * r.excitations.row(i) + (pos - i) * r.excitations.row(i + 1);
+  }
+  return out;
+}
+
+CpgModel random_pair_model(unsigned seed, int muscles) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  CpgModel m;
+  // Symmetric inhibition (one a per pair, as the fitted family has); tonic inputs differ.
+  const double a = 1.5 + u(rng);
+  m.network = MatsuokaNetwork::pair(2 + 4 * u(rng), 0.1, 0.1 * (5 + 10 * u(rng)), 2 + 2 * u(rng), a, a);
+  m.network.s[1] = 2 + 4 * u(rng);
+  m.start = MatsuokaState::resting(m.network);
+  m.output_map = Eigen::MatrixXd::NullaryExpr(muscles, 2, [&] { return u(rng) < 0.3 ? 0.0 : 0.3 * u(rng); });
+  m.output_bias = Eigen::VectorXd::NullaryExpr(muscles, [&] { return 0.05 * u(rng); });
+  m.feedback_gains = Eigen::MatrixXd::Zero(2, 0);
+  return m;
+}
+
+}  // namespace
+
+// Parameter recovery for a single oscillator pair: patterns of a known random network are fitted
+// back with R^2 >= 0.99 on every active muscle. (Two coupled pairs are not yet recovered that
+// well: see the issue note.)
+TEST(CpgFit, RecoversARandomPairNetwork) {
+  int tested = 0;
+  for (unsigned seed = 5; tested < 2 && seed < 20; ++seed) {
+    const CpgModel truth = random_pair_model(seed, 10);
+    double period = 0;
+    const Eigen::MatrixXd target = patterns_of(truth, 100, period);
+    if (period == 0) continue;  // this draw does not oscillate: not a pattern to recover
+    ++tested;
+    std::vector<std::string> names(10);
+    for (int k = 0; k < 10; ++k) names[k].assign(1, 'm').append(std::to_string(k));
+    CpgFitOptions o;
+    o.pairs = 1;
+    o.starts = 4;
+    const CpgFitResult r = fit_cpg(target, period, names, o);
+    for (int k = 0; k < 10; ++k) {
+      if (target.col(k).maxCoeff() > o.active_threshold) {
+        EXPECT_GE(r.summary.r_squared[k], 0.99) << "seed " << seed << " muscle " << k;
+      }
+    }
+    std::printf("[ info ] seed %u: %s\n", seed, r.summary.BriefReport().c_str());
+    // The fitted model reproduces its own fit when run, at the gait cycle's period.
+    const CpgRun run = run_cpg(r.model, 6 * period, 0.001);
+    EXPECT_NEAR(oscillation_period(run.neurons.col(0), 0.001, 2000), period, 0.02 * period);
+  }
+  EXPECT_EQ(tested, 2);
+}
+
+TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
+  const CpgModel m = random_pair_model(5, 4);
+  double period = 0;
+  patterns_of(m, 50, period);
+  CpgModel fast = m;
+  fast.speed = 1.2;
+  const CpgRun r = run_cpg(fast, 40 * period, 0.001);
+  EXPECT_NEAR(oscillation_period(r.neurons.col(0), 0.001, 20000), period / 1.2, 0.01 * period);  // speed knob: cycle / 1.2
+  CpgModel small = m;  // a small map, so nothing is clamped at 1
+  small.output_map *= 0.1;
+  CpgModel quiet = small;
+  quiet.amplitude = 0.5;
+  const CpgRun a = run_cpg(small, 2.0, 0.001), b = run_cpg(quiet, 2.0, 0.001);
+  ASSERT_LT(a.excitations.maxCoeff(), 1.0);
+  EXPECT_LT((b.excitations - 0.5 * a.excitations).cwiseAbs().maxCoeff(), 1e-9);  // amplitude scales the excitations
+  // Walk -> stand (amplitude 0) over a second: smooth, and quiet at the end.
+  CpgModel stand = m;
+  stand.amplitude = 0.0;
+  const CpgRun t = run_cpg_transition(m, stand, 1.0, 2.0, 3.0, 0.001);
+  EXPECT_LT((t.excitations.bottomRows(500)).cwiseAbs().maxCoeff(), 1e-12);
+  const Eigen::MatrixXd steps = (t.excitations.bottomRows(t.excitations.rows() - 1) - t.excitations.topRows(t.excitations.rows() - 1)).cwiseAbs();
+  EXPECT_LT(steps.maxCoeff(), 0.05);  // no jumps
+  // JSON round trip and validation.
+  CpgModel named = m;
+  named.muscle_names = {"a", "b", "c", "d"};
+  const CpgModel back = CpgModel::from_json(named.to_json(), "model.json");
+  EXPECT_EQ(back.muscle_names, named.muscle_names);
+  EXPECT_LT((run_cpg(back, 1.0, 0.001).excitations - run_cpg(named, 1.0, 0.001).excitations).cwiseAbs().maxCoeff(), 1e-12);
+  nlohmann::json bad = named.to_json();
+  bad["output_map"][0][0] = -1.0;
+  EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
+  bad = named.to_json();
+  bad["network"]["tau_r_s"] = {1.0};
+  EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
+}
