@@ -3,8 +3,13 @@
 // reference data skip with a message naming the missing path.
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
+#include <algorithm>
 #include <filesystem>
+#include <random>
 #include <string>
+
+#include "cpgait/model/model.h"
 
 namespace cpgait::refdata {
 
@@ -14,6 +19,16 @@ inline std::string shared_path(const std::string& relative) {
 inline std::string gait2392(const std::string& relative) { return shared_path("opensim/gait2392/" + relative); }
 inline std::string fixture(const std::string& relative) {
   return std::string(CPGAIT_FIXTURES_DIR) + "/" + relative;
+}
+
+// A pose with every coordinate drawn uniformly within its range (clipped to +-2 or +-3).
+inline Eigen::VectorXd random_pose(const Model& m, std::mt19937& rng, double limit = 3.0) {
+  Eigen::VectorXd q(m.num_coordinates());
+  for (int c = 0; c < m.num_coordinates(); ++c) {
+    const auto& co = m.coordinates[c];
+    q[c] = std::uniform_real_distribution<double>(std::max(co.range_min, -limit), std::min(co.range_max, limit))(rng);
+  }
+  return q;
 }
 
 }  // namespace cpgait::refdata

@@ -16,15 +16,6 @@ using namespace cpgait;
 
 namespace {
 
-Eigen::VectorXd random_pose(const Model& m, std::mt19937& rng) {
-  Eigen::VectorXd q(m.num_coordinates());
-  for (int c = 0; c < m.num_coordinates(); ++c) {
-    const auto& co = m.coordinates[c];
-    const double lo = std::max(co.range_min, -3.0), hi = std::min(co.range_max, 3.0);
-    q[c] = std::uniform_real_distribution<double>(lo, hi)(rng);
-  }
-  return q;
-}
 
 // The analytic Jacobian of every marker (motion subspace) against forward-mode autodiff through the
 // templated forward kinematics.
@@ -37,7 +28,7 @@ void check_jacobians(const Model& m, int poses) {
   KinematicsWorkspace<Jet> wj(m);
   MotionSubspace S(m);
   for (int trial = 0; trial < poses; ++trial) {
-    const Eigen::VectorXd q = random_pose(m, rng);
+    const Eigen::VectorXd q = refdata::random_pose(m, rng, 3.0);
     std::vector<Jet> qj(m.num_coordinates());
     for (int c = 0; c < m.num_coordinates(); ++c) qj[c] = Jet(q[c], c);
     forward_kinematics(m, q.data(), ws);
@@ -73,7 +64,7 @@ TEST(Kinematics, JacobianMatchesFiniteDifferences) {
   MotionSubspace S(m);
   const int toe = m.marker_index("R.Toe");
   for (int t = 0; t < 10; ++t) {
-    Eigen::VectorXd q = random_pose(m, rng);
+    Eigen::VectorXd q = refdata::random_pose(m, rng, 3.0);
     forward_kinematics(m, q.data(), ws);
     motion_subspace(m, q.data(), ws, S);
     const Eigen::Vector3d p = marker_position(m, toe, ws);

@@ -12,14 +12,6 @@ using namespace cpgait;
 
 namespace {
 
-Eigen::VectorXd random_pose(const Model& m, std::mt19937& rng) {
-  Eigen::VectorXd q(m.num_coordinates());
-  for (int c = 0; c < m.num_coordinates(); ++c) {
-    const auto& co = m.coordinates[c];
-    q[c] = std::uniform_real_distribution<double>(std::max(co.range_min, -2.0), std::min(co.range_max, 2.0))(rng);
-  }
-  return q;
-}
 
 // Moment arms three ways: analytic (motion subspace), forward-mode autodiff through path_length,
 // and central differences of the path length. Half the poses put a conditional point's coordinate
@@ -39,7 +31,7 @@ void check_moment_arms(const Model& m, int poses) {
       if (p.kind == PathPoint::Kind::kConditional) switches.push_back({p.coordinate, p.range_min}), switches.push_back({p.coordinate, p.range_max});
   int near_switch = 0;
   for (int t = 0; t < poses; ++t) {
-    Eigen::VectorXd q = random_pose(m, rng);
+    Eigen::VectorXd q = refdata::random_pose(m, rng, 2.0);
     if (t % 2 == 1 && !switches.empty()) {
       const auto [c, edge] = switches[rng() % switches.size()];
       q[c] = edge + (t % 4 == 1 ? 1e-4 : -1e-4);  // FD steps below stay on one side

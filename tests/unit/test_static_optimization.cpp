@@ -76,13 +76,7 @@ TEST(DualNewton, SatisfiesKktOnRandomProblems) {
 TEST(StaticOptimization, CoordinateActuatorsAloneCarryTheInverseDynamics) {
   const Model& m = walker();
   const auto synth = fixtures::synthesize_trial(m, {});
-  Storage coords;
-  coords.in_degrees = false;
-  coords.labels.push_back("time");
-  for (const auto& c : m.coordinates) coords.labels.push_back(c.name);
-  coords.data.resize(synth.q.rows(), synth.q.cols() + 1);
-  coords.data.col(0) = Eigen::Map<const Eigen::VectorXd>(synth.markers.time_s.data(), synth.q.rows());
-  coords.data.rightCols(synth.q.cols()) = synth.q;
+  const Storage coords = make_storage("coordinates", coordinate_names(m), synth.markers.time_s, synth.q, false);
   // Model without muscles: one coordinate actuator per coordinate, optimal force 100.
   Model bare = m;
   bare.muscles.clear();
@@ -105,13 +99,7 @@ TEST(StaticOptimization, CoordinateActuatorsAloneCarryTheInverseDynamics) {
 TEST(StaticOptimization, MusclesWithReservesMeetTheEqualityWithinBounds) {
   const Model& m = walker();
   const auto synth = fixtures::synthesize_trial(m, {});
-  Storage coords;
-  coords.in_degrees = false;
-  coords.labels.push_back("time");
-  for (const auto& c : m.coordinates) coords.labels.push_back(c.name);
-  coords.data.resize(synth.q.rows(), synth.q.cols() + 1);
-  coords.data.col(0) = Eigen::Map<const Eigen::VectorXd>(synth.markers.time_s.data(), synth.q.rows());
-  coords.data.rightCols(synth.q.cols()) = synth.q;
+  const Storage coords = make_storage("coordinates", coordinate_names(m), synth.markers.time_s, synth.q, false);
   std::vector<ActuatorSpec> specs;
   for (const auto& c : m.coordinates) {
     ActuatorSpec a;
