@@ -4,6 +4,8 @@
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/dynamics/forward_dynamics.h"
+#include <Eigen/Eigenvalues>
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/rnea.h"
 #include "cpgait/model/osim_reader.h"
@@ -226,4 +228,81 @@ TEST(ExternalLoads, UnknownBodyOrColumnNamesTheXmlLine) {
   one.forces.pop_back();
   data.labels[5] = "f_qy";
   EXPECT_THROW(AppliedLoads(walker(), one, data), InputError);
+}
+
+// The mass matrix two ways: the composite-rigid-body algorithm, and columns of RNEA with unit
+// accelerations at zero speed (M e_i = ID(q, 0, e_i) - ID(q, 0, 0)).
+TEST(Crba, MatchesUnitAccelerationsThroughRnea) {
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  std::mt19937 rng(13);
+  ForwardDynamicsWorkspace ws(m);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::VectorXd q = random_vector(n, rng, 0.6), zero = Eigen::VectorXd::Zero(n);
+    forward_kinematics(m, q.data(), ws.kinematics);
+    motion_subspace(m, q.data(), ws.kinematics, ws.S);
+    crba(m, ws.kinematics, ws.S, ws.M);
+    const Eigen::VectorXd g = rnea_tau(m, q, zero, zero);
+    for (int i = 0; i < n; ++i) {
+      Eigen::VectorXd e = zero;
+      e[i] = 1;
+      EXPECT_LT((rnea_tau(m, q, zero, e) - g - ws.M.col(i)).cwiseAbs().maxCoeff(), 1e-10) << m.coordinates[i].name;
+    }
+    EXPECT_LT((ws.M - ws.M.transpose()).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(ws.M).eigenvalues().minCoeff(), 0.0);
+    // 1/2 qd' M qd is the kinetic energy computed body by body.
+    const Eigen::VectorXd qd = random_vector(n, rng, 2.0);
+    EXPECT_NEAR(0.5 * qd.dot(ws.M * qd), kinetic_energy(m, q, qd), 1e-10 * (1 + kinetic_energy(m, q, qd)));
+  }
+}
+
+TEST(ForwardDynamics, InverseOfInverseDynamics) {
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  std::mt19937 rng(17);
+  ForwardDynamicsWorkspace ws(m);
+  for (int trial = 0; trial < 10; ++trial) {
+    const Eigen::VectorXd q = random_vector(n, rng, 0.6), qd = random_vector(n, rng, 2.0), tau = random_vector(n, rng, 50.0);
+    std::vector<Vector6d> ext(m.bodies.size(), Vector6d::Zero());
+    ext[m.body_index("foot_r")] = spatial_force(Eigen::Vector3d(10, 600, -5), Eigen::Vector3d(0.3, 0.0, 0.1));
+    Eigen::VectorXd qdd(n);
+    forward_dynamics(m, q.data(), qd.data(), tau.data(), ext, ws, qdd.data());
+    const Eigen::VectorXd back = rnea_tau(m, q, qd, qdd, ext);
+    EXPECT_LT((back - tau).cwiseAbs().maxCoeff(), 1e-9 * (1 + tau.cwiseAbs().maxCoeff())) << "trial " << trial;
+  }
+}
+
+TEST(ForwardDynamics, PassiveModelConservesEnergy) {
+  // The fixture model falling and tumbling freely under gravity, no joint torques: classical RK4 at
+  // 0.1 ms for half a second keeps kinetic + potential energy constant.
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  std::mt19937 rng(19);
+  ForwardDynamicsWorkspace ws(m);
+  Eigen::VectorXd q = random_vector(n, rng, 0.3), qd = random_vector(n, rng, 1.0);
+  q[m.coordinate_index("lumbar_rotation")] = 0;  // locked coordinates are still integrated here; keep it tidy
+  const Eigen::VectorXd tau = Eigen::VectorXd::Zero(n);
+  const std::vector<Vector6d> none;
+  auto accel = [&](const Eigen::VectorXd& qq, const Eigen::VectorXd& vv) {
+    Eigen::VectorXd a(n);
+    forward_dynamics(m, qq.data(), vv.data(), tau.data(), none, ws, a.data());
+    return a;
+  };
+  const double e0 = mechanical_energy(m, q.data(), qd.data(), ws);
+  const Eigen::MatrixXd M0 = ws.M;
+  const Eigen::VectorXd qd0 = qd;
+  const double h = 1e-4;
+  for (int step = 0; step < 5000; ++step) {
+    const Eigen::VectorXd a1 = accel(q, qd);
+    const Eigen::VectorXd a2 = accel(q + 0.5 * h * qd, qd + 0.5 * h * a1);
+    const Eigen::VectorXd a3 = accel(q + 0.5 * h * (qd + 0.5 * h * a1), qd + 0.5 * h * a2);
+    const Eigen::VectorXd a4 = accel(q + h * (qd + 0.5 * h * a2), qd + h * a3);
+    q += h * qd + h * h / 6.0 * (a1 + a2 + a3);
+    qd += h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4);
+  }
+  const double e1 = mechanical_energy(m, q.data(), qd.data(), ws);
+  EXPECT_LT(std::abs(e1 - e0), 1e-6 * std::abs(e0) + 1e-6) << "energy " << e0 << " -> " << e1 << " J";
+  // And it really moved: half a second of free fall turns about m g^2 t^2 / 2 of potential energy
+  // into kinetic energy.
+  EXPECT_GT(0.5 * qd.dot(ws.M * qd) - 0.5 * qd0.dot(M0 * qd0), 0.5 * m.total_mass_kg() * 9.8 * 9.8 * 0.25 * 0.5);
 }
