@@ -90,6 +90,16 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
   return out;
 }
 
+void inverse_dynamics_frame(const Model& model, const double* q, const double* qd, const double* qdd, double t,
+                            const AppliedLoads* loads, InverseDynamicsFrameWorkspace& ws, double* tau) {
+  static const std::vector<Vector6d> kNone;
+  if (loads) {
+    forward_kinematics(model, q, ws.kinematics);
+    loads->wrenches_at(t, ws.kinematics, ws.external);
+  }
+  rnea(model, q, qd, qdd, loads ? ws.external : kNone, ws.dynamics, tau);
+}
+
 InverseDynamicsResult inverse_dynamics(const Model& model, const Storage& coordinates, const AppliedLoads* loads,
                                        const InverseDynamicsOptions& options, Progress* progress) {
   InverseDynamicsResult result;
@@ -101,9 +111,7 @@ InverseDynamicsResult inverse_dynamics(const Model& model, const Storage& coordi
     result.summary.warnings.push_back("the load data does not cover the whole time range; end values are held");
   result.time_s = k.time_s;
   result.generalized_forces.resize(m, nq);
-  DynamicsWorkspace ws(model);
-  KinematicsWorkspace<double> kin(model);
-  std::vector<Vector6d> external(loads ? model.bodies.size() : 0);
+  InverseDynamicsFrameWorkspace ws(model);
   Eigen::VectorXd q(nq), qd(nq), qdd(nq), tau(nq);
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < m; ++i) {
@@ -111,11 +119,7 @@ InverseDynamicsResult inverse_dynamics(const Model& model, const Storage& coordi
     q = k.q.row(i).transpose();
     qd = k.qd.row(i).transpose();
     qdd = k.qdd.row(i).transpose();
-    if (loads) {
-      forward_kinematics(model, q.data(), kin);
-      loads->wrenches_at(k.time_s[i], kin, external);
-    }
-    rnea(model, q.data(), qd.data(), qdd.data(), external, ws, tau.data());
+    inverse_dynamics_frame(model, q.data(), qd.data(), qdd.data(), k.time_s[i], loads, ws, tau.data());
     result.generalized_forces.row(i) = tau.transpose();
     if (progress) progress->report(double(i + 1) / m, "inverse dynamics");
   }

@@ -55,6 +55,17 @@ struct InverseDynamicsResult {
   InverseDynamicsSummary summary;
 };
 
+// One frame: generalized forces at (q, qd, qdd) and time t with the loads (nullptr: none). The
+// stage runs this per sample; benchmarks time it alone.
+struct InverseDynamicsFrameWorkspace {
+  DynamicsWorkspace dynamics;
+  KinematicsWorkspace<double> kinematics;  // body poses for loads expressed in body frames
+  std::vector<Vector6d> external;
+  explicit InverseDynamicsFrameWorkspace(const Model& m) : dynamics(m), kinematics(m), external(m.bodies.size()) {}
+};
+void inverse_dynamics_frame(const Model& model, const double* q, const double* qd, const double* qdd, double t_s,
+                            const AppliedLoads* loads, InverseDynamicsFrameWorkspace& ws, double* tau);
+
 InverseDynamicsResult inverse_dynamics(const Model& model, const Storage& coordinates, const AppliedLoads* loads,
                                        const InverseDynamicsOptions& options = {}, Progress* progress = nullptr);
 
