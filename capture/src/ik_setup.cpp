@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/json_input.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/xml_document.h"
 
@@ -94,12 +95,7 @@ IkTaskSet read_ik_tasks(const std::string& path) {
 }
 
 IkTaskSet parse_ik_tasks_json(const std::string& content, const std::string& name) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(content);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(name, 0, "", std::string("malformed JSON: ") + e.what());
-  }
+  const nlohmann::json j = parse_json_input(content, name);
   if (!j.is_object()) throw InputError(name, 0, "", "expected a JSON object with \"markers\" and \"coordinates\"");
   IkTaskSet tasks;
   try {

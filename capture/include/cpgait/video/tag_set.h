@@ -1,0 +1,46 @@
+#pragma once
+// Which AprilTags are stuck on which body: id -> body, printed size and the tag's pose on the body.
+// Every tag gives four virtual markers, its corners, named `tag<id>_<k>` unless the set names them.
+// Tag frame (AprilTag's): origin at the centre, x to the right of the printed pattern, y down, z into
+// the surface; corner k is at tag_corners_in_tag_frame(size)[k], the order the detector reports.
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "cpgait/model/model.h"
+
+namespace cpgait::video {
+
+struct TagMount {
+  int id = 0;
+  std::string body;
+  double size_m = 0;  // edge of the square whose corners are detected (the black border's outer edge)
+  Eigen::Vector3d position_in_body_m = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d rotation_body_from_tag = Eigen::Matrix3d::Identity();
+  std::array<std::string, 4> corner_markers;
+
+  Eigen::Vector3d corner_in_body_m(int k) const;
+};
+
+struct TagSet {
+  std::string family = "tag36h11";
+  std::vector<TagMount> tags;
+
+  const TagMount* find(int id) const;
+  std::vector<std::string> marker_names() const;  // 4 per tag, in tag order
+};
+
+std::array<Eigen::Vector3d, 4> tag_corners_in_tag_frame(double size_m);
+
+// JSON "cpgait.tagset/1": {"family": "tag36h11", "tags": [{"id", "body", "size_m", "position_m": [3],
+// "rotation_body_from_tag": [9 row-major] or "orientation_body_xyz_deg": [3], "corner_markers": [4]}]}.
+TagSet read_tag_set(const std::string& path);
+TagSet parse_tag_set_json(const std::string& text, const std::string& name);
+std::string format_tag_set_json(const TagSet& set);
+
+// A copy of `model` with the tag corners added as markers (replacing markers of the same name), so
+// IK runs on triangulated tag corners. Throws InputError for a body the model lacks.
+Model with_tag_markers(const Model& model, const TagSet& set, const std::string& set_name = "tag set");
+
+}  // namespace cpgait::video

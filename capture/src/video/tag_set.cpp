@@ -1,0 +1,126 @@
+#include "cpgait/video/tag_set.h"
+
+#include <set>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/json_input.h"
+#include "cpgait/capture/text_lines.h"
+#include "cpgait/video/tag_family.h"
+
+namespace cpgait::video {
+
+std::array<Eigen::Vector3d, 4> tag_corners_in_tag_frame(double s) {
+  const double h = s / 2;
+  return {Eigen::Vector3d(-h, h, 0), Eigen::Vector3d(h, h, 0), Eigen::Vector3d(h, -h, 0), Eigen::Vector3d(-h, -h, 0)};
+}
+
+Eigen::Vector3d TagMount::corner_in_body_m(int k) const {
+  return rotation_body_from_tag * tag_corners_in_tag_frame(size_m)[static_cast<std::size_t>(k)] + position_in_body_m;
+}
+
+const TagMount* TagSet::find(int id) const {
+  for (const TagMount& t : tags)
+    if (t.id == id) return &t;
+  return nullptr;
+}
+
+std::vector<std::string> TagSet::marker_names() const {
+  std::vector<std::string> names;
+  for (const TagMount& t : tags) names.insert(names.end(), t.corner_markers.begin(), t.corner_markers.end());
+  return names;
+}
+
+TagSet parse_tag_set_json(const std::string& text, const std::string& name) {
+  using nlohmann::json;
+  const json j = parse_json_input(text, name);
+  if (!j.is_object() || !j.contains("tags") || !j["tags"].is_array())
+    throw InputError(name, 0, "tags", "expected an object with a \"tags\" array");
+  TagSet set;
+  set.family = j.value("family", set.family);
+  int num_codes = 0;
+  try {
+    num_codes = tag_family_info(set.family).num_codes;
+  } catch (const std::invalid_argument& e) {
+    throw InputError(name, 0, "family", e.what());
+  }
+  std::set<int> ids;
+  std::set<std::string> markers;
+  for (std::size_t i = 0; i < j["tags"].size(); ++i) {
+    const json& t = j["tags"][i];
+    const std::string at = "tags[" + std::to_string(i) + "]";
+    TagMount m;
+    m.id = json_field<int>(t, "id", name, at);
+    if (m.id < 0 || m.id >= num_codes)
+      throw InputError(name, 0, at + ".id", "not an id of " + set.family + " (0.." + std::to_string(num_codes - 1) + ")");
+    if (!ids.insert(m.id).second) throw InputError(name, 0, at + ".id", "tag " + std::to_string(m.id) + " listed twice");
+    m.body = json_field<std::string>(t, "body", name, at);
+    m.size_m = json_field<double>(t, "size_m", name, at);
+    if (!(m.size_m > 0.005 && m.size_m < 2))
+      throw InputError(name, 0, at + ".size_m", "tag size must be in metres (0.005 to 2)");
+    const auto p = json_field<std::vector<double>>(t, "position_m", name, at);
+    if (p.size() != 3) throw InputError(name, 0, at + ".position_m", "expected 3 numbers");
+    m.position_in_body_m = {p[0], p[1], p[2]};
+    if (t.contains("rotation_body_from_tag")) {
+      const auto r = json_field<std::vector<double>>(t, "rotation_body_from_tag", name, at);
+      if (r.size() != 9) throw InputError(name, 0, at + ".rotation_body_from_tag", "expected 9 numbers, row-major");
+      for (int k = 0; k < 9; ++k) m.rotation_body_from_tag(k / 3, k % 3) = r[static_cast<std::size_t>(k)];
+      const double orth = (m.rotation_body_from_tag * m.rotation_body_from_tag.transpose() - Eigen::Matrix3d::Identity()).norm();
+      if (orth > 1e-6 || m.rotation_body_from_tag.determinant() < 0)
+        throw InputError(name, 0, at + ".rotation_body_from_tag", "not a rotation matrix");
+    } else if (t.contains("orientation_body_xyz_deg")) {
+      const auto a = json_field<std::vector<double>>(t, "orientation_body_xyz_deg", name, at);
+      if (a.size() != 3) throw InputError(name, 0, at + ".orientation_body_xyz_deg", "expected 3 angles");
+      m.rotation_body_from_tag = rotation_from_body_xyz(Eigen::Vector3d(a[0], a[1], a[2]) * (M_PI / 180));
+    }
+    for (int k = 0; k < 4; ++k) m.corner_markers[static_cast<std::size_t>(k)] = "tag" + std::to_string(m.id) + "_" + std::to_string(k);
+    if (t.contains("corner_markers")) {
+      const auto names = json_field<std::vector<std::string>>(t, "corner_markers", name, at);
+      if (names.size() != 4) throw InputError(name, 0, at + ".corner_markers", "expected 4 marker names");
+      for (int k = 0; k < 4; ++k) m.corner_markers[static_cast<std::size_t>(k)] = names[static_cast<std::size_t>(k)];
+    }
+    for (const std::string& mk : m.corner_markers)
+      if (!markers.insert(mk).second) throw InputError(name, 0, at + ".corner_markers", "marker name " + mk + " used twice");
+    set.tags.push_back(m);
+  }
+  return set;
+}
+
+TagSet read_tag_set(const std::string& path) { return parse_tag_set_json(text::read_file(path), path); }
+
+std::string format_tag_set_json(const TagSet& set) {
+  using nlohmann::json;
+  json tags = json::array();
+  for (const TagMount& m : set.tags) {
+    std::vector<double> r(9);
+    for (int k = 0; k < 9; ++k) r[static_cast<std::size_t>(k)] = m.rotation_body_from_tag(k / 3, k % 3);
+    tags.push_back({{"id", m.id},
+                    {"body", m.body},
+                    {"size_m", m.size_m},
+                    {"position_m", {m.position_in_body_m.x(), m.position_in_body_m.y(), m.position_in_body_m.z()}},
+                    {"rotation_body_from_tag", r},
+                    {"corner_markers", m.corner_markers}});
+  }
+  return json{{"schema", "cpgait.tagset/1"}, {"family", set.family}, {"tags", tags}}.dump(2) + "\n";
+}
+
+Model with_tag_markers(const Model& model, const TagSet& set, const std::string& set_name) {
+  Model out = model;
+  for (std::size_t i = 0; i < set.tags.size(); ++i) {
+    const TagMount& t = set.tags[i];
+    const int body = model.body_index(t.body);
+    if (body < 0)
+      throw InputError(set_name, 0, "tags[" + std::to_string(i) + "].body", "model " + model.name + " has no body " + t.body);
+    for (int k = 0; k < 4; ++k) {
+      Marker mk{t.corner_markers[static_cast<std::size_t>(k)], body, t.corner_in_body_m(k), false};
+      const int existing = out.marker_index(mk.name);
+      if (existing >= 0) {
+        out.markers[static_cast<std::size_t>(existing)] = mk;
+      } else {
+        out.markers.push_back(mk);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace cpgait::video
