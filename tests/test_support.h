@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <random>
 #include <string>
+#include <unistd.h>
 
 #include "cpgait/model/model.h"
 
@@ -19,6 +20,15 @@ inline std::string shared_path(const std::string& relative) {
 inline std::string gait2392(const std::string& relative) { return shared_path("opensim/gait2392/" + relative); }
 inline std::string fixture(const std::string& relative) {
   return std::string(CPGAIT_FIXTURES_DIR) + "/" + relative;
+}
+
+// A fresh, empty folder under the system temp directory, unique to this process.
+inline std::string temp_dir(const std::string& name) {
+  const std::filesystem::path d =
+      std::filesystem::temp_directory_path() / ("cpgait_test_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d.string();
 }
 
 // A pose with every coordinate drawn uniformly within its range (clipped to +-2 or +-3).

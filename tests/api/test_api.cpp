@@ -27,13 +27,6 @@ using cpgait::apitest::ServerProcess;
 
 namespace {
 
-std::string temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("cpgait_api_" + name + "_" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d.string();
-}
-
 std::string slurp(const std::string& path) { return cpgait::text::read_file(path); }
 
 std::string synthetic_trc(double duration_s, std::uint32_t seed = 1) {
@@ -101,7 +94,7 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
   const std::string pl = cpgait::refdata::gait2392("pipeline/");
   for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot", "subject01_walk1_grf.xml"})
     REQUIRE_REFERENCE(pl + f);
-  const std::string dir = temp_dir("subject01");
+  const std::string dir = cpgait::refdata::temp_dir("api_subject01");
   ServerProcess server(dir + "/data");
   httplib::Client c("127.0.0.1", server.port());
 
@@ -157,7 +150,7 @@ TEST(ApiReference, ModelWithSeparateMarkerSet) {
   const std::string markers = cpgait::refdata::gait2392("pipeline/gait2392_Scale_MarkerSet.xml");
   REQUIRE_REFERENCE(model);
   REQUIRE_REFERENCE(markers);
-  const std::string dir = temp_dir("markerset");
+  const std::string dir = cpgait::refdata::temp_dir("api_markerset");
   ServerProcess server(dir + "/data");
   httplib::Client c("127.0.0.1", server.port());
   auto bare = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", slurp(model), "gait2392_simbody.osim", ""}});
@@ -178,7 +171,7 @@ TEST(ApiReference, ModelWithSeparateMarkerSet) {
 // Acceptance 2: kill -9 during a job; after a restart every job ends complete and no finished
 // result changed.
 TEST(Api, KillDuringJobsThenRestartCompletesEverything) {
-  const std::string dir = temp_dir("restart");
+  const std::string dir = cpgait::refdata::temp_dir("api_restart");
   std::map<std::string, std::string> finished_before;  // file -> content
   std::vector<std::string> ids;
   std::string first;
@@ -223,7 +216,7 @@ TEST(Api, KillDuringJobsThenRestartCompletesEverything) {
 // Acceptance 3: every kind of bad input gets the right status and a useful JSON message, and
 // nothing is stored for a rejected upload.
 TEST(Api, BadInputMatrix) {
-  const std::string dir = temp_dir("bad");
+  const std::string dir = cpgait::refdata::temp_dir("api_bad");
   ServerProcess server(dir + "/data", {"--max-upload-mb", "1"});
   httplib::Client c("127.0.0.1", server.port());
   const std::string trc = synthetic_trc(0.3);
@@ -312,7 +305,7 @@ TEST(Api, BadInputMatrix) {
 }
 
 TEST(Api, TokenCancelDeleteListAndMetrics) {
-  const std::string dir = temp_dir("token");
+  const std::string dir = cpgait::refdata::temp_dir("api_token");
   ServerProcess server(dir + "/data", {"--token", "s3cret", "--workers", "1"});
   httplib::Client c("127.0.0.1", server.port());
   EXPECT_EQ(c.Get("/api/v1/trials")->status, 401);
@@ -356,7 +349,7 @@ TEST(Api, TokenCancelDeleteListAndMetrics) {
 TEST(ApiReference, FiftyConcurrentUploads) {
   const std::string pl = cpgait::refdata::gait2392("pipeline/");
   for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot"}) REQUIRE_REFERENCE(pl + f);
-  const std::string dir = temp_dir("load");
+  const std::string dir = cpgait::refdata::temp_dir("api_load");
   ServerProcess server(dir + "/data", {"--workers", "2"});
   httplib::Client c("127.0.0.1", server.port());
   auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{

@@ -25,12 +25,6 @@ CliRun run(const std::string& args) {
   r.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
   return r;
 }
-std::string temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("cpgait_cli_" + name + "_" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d.string();
-}
 }  // namespace
 
 TEST(Cli, HelpStatesInputsOutputsAndUnits) {
@@ -43,7 +37,7 @@ TEST(Cli, HelpStatesInputsOutputsAndUnits) {
 }
 
 TEST(Cli, SynthThenIkWritesOpenSimFiles) {
-  const std::string dir = temp_dir("ik");
+  const std::string dir = cpgait::refdata::temp_dir("cli_ik");
   const std::string model = cpgait::refdata::fixture("models/walker.osim");
   ASSERT_EQ(run("synth --model " + model + " --duration 0.5 -o " + dir + "/t.trc").status, 0);
   const CliRun r = run("ik --model " + model + " --markers " + dir + "/t.trc -o " + dir);
@@ -59,7 +53,7 @@ TEST(Cli, SynthThenIkWritesOpenSimFiles) {
 }
 
 TEST(Cli, BadInputExitsWithFileLineAndField) {
-  const std::string dir = temp_dir("bad");
+  const std::string dir = cpgait::refdata::temp_dir("cli_bad");
   {
     std::FILE* f = std::fopen((dir + "/bad.trc").c_str(), "w");
     std::fputs("PathFileType\t4\nDataRate\tNumFrames\tNumMarkers\tUnits\n60\t1\t1\tfurlongs\nFrame#\tTime\tA\n\n1\t0\t1\t2\t3\n", f);
@@ -77,7 +71,7 @@ TEST(Cli, BadInputExitsWithFileLineAndField) {
 TEST(CliReference, RunToolRunsOpenSimsIkSetup) {
   const std::string setup = cpgait::refdata::gait2392("pipeline/subject01_Setup_IK.xml");
   REQUIRE_REFERENCE(setup);
-  const std::string dir = temp_dir("runtool");
+  const std::string dir = cpgait::refdata::temp_dir("cli_runtool");
   const CliRun r = run("run-tool " + setup + " --results " + dir);
   ASSERT_EQ(r.status, 0) << r.output;
   const cpgait::Storage q = cpgait::read_storage(dir + "/subject01_walk1_ik.mot");
@@ -91,7 +85,7 @@ TEST(CliReference, RunToolRunsOpenSimsIkSetup) {
 TEST(CliReference, IdAndSoFromTheCommandLine) {
   const std::string pl = cpgait::refdata::gait2392("pipeline/");
   REQUIRE_REFERENCE(pl + "subject01_walk1_grf.mot");
-  const std::string dir = temp_dir("idso");
+  const std::string dir = cpgait::refdata::temp_dir("cli_idso");
   const std::string model = pl + "OutputReference/subject01_simbody.osim";
   CliRun id = run("id --model " + model + " --coordinates " + pl + "subject01_walk1_ik.mot --loads " + pl +
                   "subject01_walk1_grf.xml --cutoff 6 --time 0.5 1.0 -o " + dir + "/id.sto");

@@ -22,8 +22,8 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
-// Fills runs of missing frames no longer than max_gap_s that have samples on both sides, with an
-// interpolating cubic spline (OpenSim's SimmSpline) through up to four samples each side.
+// Fills runs of missing frames no longer than max_gap_s that have triangulated samples on both
+// sides, with an interpolating cubic spline (OpenSim's SimmSpline) through up to four samples each side.
 long fill_gaps(CaptureResult& r, double max_gap_s) {
   MarkerTrial& t = r.markers;
   long filled = 0;
@@ -37,11 +37,13 @@ long fill_gaps(CaptureResult& r, double max_gap_s) {
       const int first = f;
       while (f < t.num_frames() && r.views(f, m) == 0) ++f;
       const int last = f - 1;  // gap is [first, last]
-      if (first == 0 || f == t.num_frames()) continue;
+      // Only triangulated samples anchor a fill: a single-view pose is too uncertain to extend.
+      if (first == 0 || f == t.num_frames() || r.views(first - 1, m) < 2 || r.views(f, m) < 2) continue;
       if (t.time_s[static_cast<std::size_t>(f)] - t.time_s[static_cast<std::size_t>(first - 1)] > max_gap_s + 1e-9) continue;
       std::vector<int> known;
-      for (int k = first - 1; k >= 0 && static_cast<int>(known.size()) < 4 && r.views(k, m) != 0; --k) known.insert(known.begin(), k);
-      for (int k = f; k < t.num_frames() && static_cast<int>(known.size()) < 8 && r.views(k, m) != 0; ++k) known.push_back(k);
+      for (int k = first - 1; k >= 0 && static_cast<int>(known.size()) < 4 && r.views(k, m) >= 2; --k) known.insert(known.begin(), k);
+      const std::size_t before = known.size();
+      for (int k = f; k < t.num_frames() && known.size() < before + 4 && r.views(k, m) >= 2; ++k) known.push_back(k);
       std::vector<double> x;
       for (int k : known) x.push_back(t.time_s[static_cast<std::size_t>(k)]);
       for (int axis = 0; axis < 3; ++axis) {
@@ -103,7 +105,7 @@ std::vector<std::pair<int, std::string>> match_videos_to_cameras(const CameraRig
 CameraFootage detect_video(int camera, const std::string& path, const TagDetectorOptions& detector_options,
                            const TagTrackerOptions& tracker_options, double fallback_rate_hz) {
   if (!std::filesystem::exists(path)) throw InputError(path, 0, "videos", "file not found");
-  cv::VideoCapture video(path);
+  cv::VideoCapture video(path, cv::CAP_FFMPEG);  // FFmpeg only: no GStreamer probing of bad files
   if (!video.isOpened()) throw InputError(path, 0, "videos", "cannot open as a video (FFmpeg could not decode it)");
   CameraFootage f;
   f.camera = camera;
@@ -116,10 +118,10 @@ CameraFootage detect_video(int camera, const std::string& path, const TagDetecto
   cv::Mat frame;
   while (video.read(frame)) {
     if (frame.empty()) break;
+    f.width_px = frame.cols;
+    f.height_px = frame.rows;
     f.frames.push_back(tracker.detect(frame));
   }
-  f.width_px = frame.cols;
-  f.height_px = frame.rows;
   if (f.frames.empty()) throw InputError(path, 0, "videos", "no decodable frames");
   return f;
 }
@@ -224,6 +226,9 @@ CaptureResult triangulate_footage(const CameraRig& rig, const TagSet& tags, cons
       const TagPose pose = tag_pose_ippe(cam, *best->second, mount.size_m);
       if (!(pose.rms_reprojection_px <= options.triangulation.max_reprojection_error_px)) continue;
       if (pose.ambiguity < options.min_pose_ambiguity) continue;
+      const auto& px = best->second->corners_px;
+      const double edge_px = std::min({(px[0] - px[1]).norm(), (px[1] - px[2]).norm(), (px[2] - px[3]).norm(), (px[3] - px[0]).norm()});
+      if (edge_px < options.min_single_view_edge_px) continue;
       const auto corners = tag_corners_in_tag_frame(mount.size_m);
       for (int k = 0; k < 4; ++k) {
         const int m = static_cast<int>(4 * t) + k;

@@ -1,5 +1,6 @@
 #include "cpgait/video/tag_set.h"
 
+#include <cstdio>
 #include <set>
 
 #include "cpgait/capture/input_error.h"
@@ -101,6 +102,22 @@ std::string format_tag_set_json(const TagSet& set) {
                     {"corner_markers", m.corner_markers}});
   }
   return json{{"schema", "cpgait.tagset/1"}, {"family", set.family}, {"tags", tags}}.dump(2) + "\n";
+}
+
+std::string format_marker_set_xml(const TagSet& set) {
+  std::string out = "<?xml version=\"1.0\" encoding=\"UTF-8\" ?>\n<OpenSimDocument Version=\"40000\">\n\t<MarkerSet name=\"tag_corners\">\n\t\t<objects>\n";
+  char buf[512];
+  for (const TagMount& t : set.tags)
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector3d p = t.corner_in_body_m(k);
+      std::snprintf(buf, sizeof buf,
+                    "\t\t\t<Marker name=\"%s\">\n\t\t\t\t<socket_parent_frame>/bodyset/%s</socket_parent_frame>\n"
+                    "\t\t\t\t<location>%.9g %.9g %.9g</location>\n\t\t\t\t<fixed>false</fixed>\n\t\t\t</Marker>\n",
+                    t.corner_markers[static_cast<std::size_t>(k)].c_str(), t.body.c_str(), p.x(), p.y(), p.z());
+      out += buf;
+    }
+  out += "\t\t</objects>\n\t\t<groups />\n\t</MarkerSet>\n</OpenSimDocument>\n";
+  return out;
 }
 
 Model with_tag_markers(const Model& model, const TagSet& set, const std::string& set_name) {

@@ -44,9 +44,13 @@ std::vector<TagDetection> TagTracker::detect(const cv::Mat& image) {
   if (region.empty()) return found;
   const double mx = region.width * options_.region_margin + options_.region_margin_px;
   const double my = region.height * options_.region_margin + options_.region_margin_px;
-  const cv::Rect window = cv::Rect(cv::Point(cvFloor(region.x - mx), cvFloor(region.y - my)),
+  cv::Rect window = cv::Rect(cv::Point(cvFloor(region.x - mx), cvFloor(region.y - my)),
                                    cv::Point(cvCeil(region.x + region.width + mx), cvCeil(region.y + region.height + my))) &
                           cv::Rect(0, 0, gray.cols, gray.rows);
+  if (options_.full_height) {
+    window.y = 0;
+    window.height = gray.rows;
+  }
   if (window.area() <= 0) return found;
   region_area_ += static_cast<double>(window.area()) / gray.total();
   std::vector<TagDetection> fine = fine_.detect(gray(window).clone());

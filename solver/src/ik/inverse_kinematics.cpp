@@ -241,6 +241,18 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
   result.worst_marker.assign(nf, -1);
   for (const auto& m : targets.markers) result.marker_names.push_back(model.markers[m.model_marker].name);
 
+  // Which targets see each free coordinate: a coordinate none of this frame's markers depends on is
+  // held at its last value instead of extrapolated, so it cannot drift (and wind past 2 pi) while its
+  // segment is out of view.
+  std::vector<std::vector<int>> markers_seeing(free.size());
+  for (int m = 0; m < static_cast<int>(targets.markers.size()); ++m)
+    for (int c : ancestor_coordinates(model, model.markers[targets.markers[m].model_marker].body))
+      for (std::size_t k = 0; k < free.size(); ++k)
+        if (free[k] == c) markers_seeing[k].push_back(m);
+  std::vector<bool> coordinate_task(free.size(), false);
+  for (const auto& t : targets.coordinates)
+    for (std::size_t k = 0; k < free.size(); ++k) coordinate_task[k] = coordinate_task[k] || free[k] == t.coordinate;
+
   KinematicsWorkspace<double> ws(model);
   Eigen::VectorXd reference_row;
   const auto start = std::chrono::steady_clock::now();
@@ -252,7 +264,10 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
     // Warm start: extrapolate linearly from the two previous solutions (smooth motion), within bounds.
     if (i >= 2) {
       for (std::size_t k = 0; k < free.size(); ++k) {
-        double guess = 2.0 * result.q(i - 1, free[k]) - result.q(i - 2, free[k]);
+        const bool seen = coordinate_task[k] || std::any_of(markers_seeing[k].begin(), markers_seeing[k].end(), [&](int m) {
+                            return !std::isnan(trial.position_m(f, targets.markers[static_cast<std::size_t>(m)].trial_marker)[0]);
+                          });
+        double guess = seen ? 2.0 * result.q(i - 1, free[k]) - result.q(i - 2, free[k]) : result.q(i - 1, free[k]);
         const double lo = problem.GetParameterLowerBound(x.data(), static_cast<int>(k));
         const double hi = problem.GetParameterUpperBound(x.data(), static_cast<int>(k));
         x[k] = std::clamp(guess, lo, hi);

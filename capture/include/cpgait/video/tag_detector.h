@@ -26,7 +26,8 @@ struct TagDetectorOptions {
 
 struct TagDetection {
   int id = 0;
-  std::array<Eigen::Vector2d, 4> corners_px;  // OpenCV convention, AprilTag's corner order
+  std::array<Eigen::Vector2d, 4> corners_px{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
+                                            Eigen::Vector2d::Zero()};  // OpenCV convention, AprilTag's corner order
   Eigen::Vector2d center_px = Eigen::Vector2d::Zero();
   double decision_margin = 0;
   int hamming = 0;

@@ -17,6 +17,9 @@ struct TagTrackerOptions {
   int memory_frames = 5;         // earlier frames whose tags widen the region
   double region_margin = 0.6;    // the region grows by this fraction of its size on each side...
   int region_margin_px = 24;     // ...plus this many pixels
+  // The region spans the image's full height: a walking subject is upright, and the large tags the
+  // fast pass finds (trunk, thighs) say where the feet are horizontally but not how far below.
+  bool full_height = true;
 };
 
 class TagTracker {

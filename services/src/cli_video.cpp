@@ -1,0 +1,169 @@
+// detect, calibrate and capture: AprilTag footage to calibrated cameras and virtual markers.
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "commands.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/video/calibrate_cameras.h"
+#include "cpgait/video/capture_markers.h"
+#include "output_files.h"
+
+namespace cpgait::services {
+namespace fs = std::filesystem;
+
+namespace {
+
+void add_detector_options(CLI::App* cmd, video::TagDetectorOptions& o) {
+  cmd->add_option("--decimate", o.quad_decimate, "quad detection on an image decimated by this factor (decoding stays full resolution)")
+      ->capture_default_str();
+  cmd->add_option("--min-margin", o.min_decision_margin, "drop detections whose decision margin is below this")->capture_default_str();
+  cmd->add_option("--max-hamming", o.max_hamming, "bit errors corrected (0-2)")->check(CLI::Range(0, 2))->capture_default_str();
+}
+
+nlohmann::json detection_json(const video::TagDetection& d) {
+  nlohmann::json corners = nlohmann::json::array();
+  for (const auto& c : d.corners_px) corners.push_back({c.x(), c.y()});
+  return {{"id", d.id},
+          {"corners_px", corners},
+          {"center_px", {d.center_px.x(), d.center_px.y()}},
+          {"decision_margin", d.decision_margin},
+          {"hamming", d.hamming}};
+}
+
+// Per frame and marker: RMS reprojection error (px) and the cameras used, as an OpenSim table.
+Storage capture_quality_table(const video::CaptureResult& r) {
+  std::vector<std::string> labels;
+  for (const auto& m : r.markers.marker_names) {
+    labels.push_back(m + "_reprojection_px");
+    labels.push_back(m + "_views");
+  }
+  Eigen::MatrixXd data(r.markers.num_frames(), static_cast<Eigen::Index>(labels.size()));
+  for (int f = 0; f < r.markers.num_frames(); ++f)
+    for (int m = 0; m < r.markers.num_markers(); ++m) {
+      data(f, 2 * m) = r.reprojection_px(f, m);
+      data(f, 2 * m + 1) = r.views(f, m);
+    }
+  return make_storage("capture quality: views 0 missing, 1 single-view pose, -1 gap-filled, n cameras", labels,
+                      r.markers.time_s, data, false);
+}
+
+}  // namespace
+
+void add_video_commands(CLI::App& app) {
+  // detect
+  auto* detect = app.add_subcommand("detect",
+                                    "Detect AprilTags in images and print them as JSON: per image its size and every tag's id,\n"
+                                    "corners (pixels, OpenCV convention: pixel centres at integers; AprilTag's corner order),\n"
+                                    "centre and decision margin.");
+  struct DetectArgs {
+    std::vector<std::string> images;
+    video::TagDetectorOptions o;
+  };
+  auto d = std::make_shared<DetectArgs>();
+  d->o.quad_decimate = 1.0f;  // one-off images: accuracy over speed
+  detect->add_option("images", d->images, "image files (PNG, JPEG, ...)")->required();
+  detect->add_option("--family", d->o.family, "tag family")->check(CLI::IsMember({"tag36h11", "tagStandard41h12"}))->capture_default_str();
+  add_detector_options(detect, d->o);
+  detect->callback([d] {
+    const video::TagDetector detector(d->o);
+    nlohmann::json out = nlohmann::json::array();
+    for (const std::string& path : d->images) {
+      if (!fs::exists(path)) throw InputError(path, 0, "images", "file not found");
+      const cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
+      if (img.empty()) throw InputError(path, 0, "images", "not a readable image");
+      nlohmann::json dets = nlohmann::json::array();
+      for (const auto& t : detector.detect(img)) dets.push_back(detection_json(t));
+      out.push_back({{"image", path}, {"width", img.cols}, {"height", img.rows}, {"family", d->o.family}, {"detections", dets}});
+    }
+    std::printf("%s\n", out.dump(2).c_str());
+  });
+
+  // calibrate
+  auto* cal = app.add_subcommand("calibrate",
+                                 "Calibrate cameras from footage of an AprilGrid board (board JSON: rows, cols, tag_size_m,\n"
+                                 "spacing, family, double_sided). Each video is NAME=PATH or a file named after its camera.\n"
+                                 "Writes a calibration JSON (intrinsics in pixels, distortion k1 k2 p1 p2 k3, extrinsics\n"
+                                 "lab->camera in metres). The lab frame is the board's frame in the reference frame, moved by\n"
+                                 "--board-position-m / --board-xyz-deg (where the board stood in the lab).");
+  struct CalArgs {
+    std::string board, out;
+    std::vector<std::string> videos;
+    video::CalibrationOptions o;
+    video::TagDetectorOptions det;
+    std::vector<double> position{0, 0, 0}, xyz_deg{0, 0, 0};
+  };
+  auto c = std::make_shared<CalArgs>();
+  cal->add_option("--board", c->board, "board description (.json)")->required()->check(CLI::ExistingFile);
+  cal->add_option("--videos", c->videos, "one video per camera")->required();
+  cal->add_option("-o,--output", c->out, "calibration JSON to write")->required();
+  cal->add_option("--reference-frame", c->o.reference_frame, "frame (0-based) whose board pose defines the lab frame; -1: the frame most cameras see")
+      ->capture_default_str();
+  cal->add_option("--board-position-m", c->position, "board origin in the lab at the reference frame (m)")->expected(3);
+  cal->add_option("--board-xyz-deg", c->xyz_deg, "board orientation in the lab (body-fixed X-Y-Z, degrees)")->expected(3);
+  cal->add_flag("!--free-k3", c->o.fix_k3, "estimate k3 too (default: fixed at 0)");
+  add_detector_options(cal, c->det);
+  cal->callback([c] {
+    const video::CalibrationBoard board = video::make_aprilgrid(video::read_aprilgrid_spec(c->board));
+    c->det.family = board.family;
+    std::vector<std::string> names;
+    std::vector<video::CameraFootage> footage;
+    for (const std::string& v : c->videos) {
+      const auto eq = v.find('=');
+      const std::string name = eq != std::string::npos ? v.substr(0, eq) : fs::path(v).stem().string();
+      const std::string path = eq != std::string::npos ? v.substr(eq + 1) : v;
+      footage.push_back(video::detect_video(static_cast<int>(names.size()), path, c->det, video::TagTrackerOptions{}, 30.0));
+      names.push_back(name);
+    }
+    c->o.world_from_reference_board.linear() =
+        rotation_from_body_xyz(Eigen::Vector3d(c->xyz_deg[0], c->xyz_deg[1], c->xyz_deg[2]) * (M_PI / 180));
+    c->o.world_from_reference_board.translation() = Eigen::Vector3d(c->position[0], c->position[1], c->position[2]);
+    const video::CalibrationResult r = video::calibrate_cameras(board, footage, names, c->o);
+    write_text_atomic(c->out, video::format_calibration_json(r.rig));
+    std::printf("%s\nwrote %s\n", r.summary.BriefReport().c_str(), c->out.c_str());
+  });
+
+  // capture
+  auto* cap = app.add_subcommand("capture",
+                                 "Turn AprilTag footage from calibrated cameras into virtual markers: detect tags in every\n"
+                                 "video (in parallel), pair frames, triangulate each tag corner, and write a TRC (mm) with\n"
+                                 "<output>_quality.sto (per frame and marker: reprojection error in px and cameras used) and\n"
+                                 "<output>_markers.xml (the corners as an OpenSim MarkerSet, for `cpgait ik --marker-set`).");
+  struct CapArgs {
+    std::vector<std::string> videos;
+    std::string calibration, tags, out, sync = "index";
+    video::CaptureOptions o;
+  };
+  auto k = std::make_shared<CapArgs>();
+  cap->add_option("--videos", k->videos, "one video per camera: NAME=PATH or a file named after its camera")->required();
+  cap->add_option("--calibration", k->calibration, "camera calibration (.json, or OpenCV .yml/.xml)")->required()->check(CLI::ExistingFile);
+  cap->add_option("--tags", k->tags, "tag set (.json): id -> body, size, pose on the body")->required()->check(CLI::ExistingFile);
+  cap->add_option("-o,--output", k->out, "the .trc to write")->required();
+  cap->add_option("--sync", k->sync, "pair frames by index, or by time with each camera's time_offset_s")
+      ->check(CLI::IsMember({"index", "time"}))->capture_default_str();
+  cap->add_option("--max-reprojection-px", k->o.triangulation.max_reprojection_error_px, "views above this error are dropped")
+      ->capture_default_str();
+  cap->add_option("--gap-fill-s", k->o.max_gap_fill_s, "fill gaps up to this long (s); 0: off")->capture_default_str();
+  cap->add_flag("!--no-single-view", k->o.single_view_pose, "never place a tag from one camera's view (IPPE)");
+  cap->add_option("--frame-rate", k->o.frame_rate_hz, "frames per second when a video does not say");
+  cap->add_option("--threads", k->o.threads, "decoding threads (0: one per video)")->capture_default_str();
+  add_detector_options(cap, k->o.detector);
+  cap->callback([k] {
+    const video::CameraRig rig = video::read_calibration(k->calibration);
+    const video::TagSet tags = video::read_tag_set(k->tags);
+    k->o.sync = k->sync == "time" ? video::CaptureOptions::Sync::kTime : video::CaptureOptions::Sync::kIndex;
+    video::CaptureResult r = video::capture_markers(rig, tags, k->videos, k->o);
+    r.markers.name = fs::path(k->out).filename().string();
+    const std::string stem = (fs::path(k->out).parent_path() / fs::path(k->out).stem()).string();
+    if (!fs::path(k->out).parent_path().empty()) ensure_directory(fs::path(k->out).parent_path().string());
+    write_text_atomic(k->out, format_trc(r.markers, "mm"));
+    write_storage_atomic(capture_quality_table(r), stem + "_quality.sto");
+    write_text_atomic(stem + "_markers.xml", video::format_marker_set_xml(tags));
+    for (const auto& w : r.summary.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    std::printf("%s\nwrote %s, %s_quality.sto, %s_markers.xml\n", r.summary.BriefReport().c_str(), k->out.c_str(), stem.c_str(),
+                stem.c_str());
+  });
+}
+
+}  // namespace cpgait::services
