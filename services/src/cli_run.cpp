@@ -25,15 +25,20 @@ void add_run_command(CLI::App& app) {
   auto* run = app.add_subcommand(
       "run",
       "Run every stage on one trial (IK, then ID, then static optimization), as the server does.\n"
-      "Inputs: .osim model, .trc markers, optional GRF .mot with its ExternalLoads .xml, optional options\n"
+      "Inputs: .osim model, .trc markers (or AprilTag videos with their calibration and tag set: a capture\n"
+      "stage then makes the markers), optional GRF .mot with its ExternalLoads .xml, optional options\n"
       "JSON (see services/src/pipeline.h for the schema). Writes all result files and job.json (the exact\n"
       "options and input paths) into DIR; `cpgait run --options DIR/job.json -o DIR2` reproduces them.");
   struct Args {
-    std::string model, markers, grf, loads, options, name, out;
+    std::string model, markers, grf, loads, options, name, out, calibration, tags;
+    std::vector<std::string> videos;
   };
   auto a = std::make_shared<Args>();
   run->add_option("--model", a->model, "OpenSim model (.osim)")->check(CLI::ExistingFile);
   run->add_option("--markers", a->markers, "marker trajectories (.trc)")->check(CLI::ExistingFile);
+  run->add_option("--videos", a->videos, "AprilTag footage instead of --markers: one video per camera (NAME=PATH or named after it)");
+  run->add_option("--calibration", a->calibration, "camera calibration for --videos (.json or OpenCV .yml)")->check(CLI::ExistingFile);
+  run->add_option("--tags", a->tags, "tag set for --videos (.json)")->check(CLI::ExistingFile);
   run->add_option("--grf", a->grf, "ground reaction forces (.mot)")->check(CLI::ExistingFile);
   run->add_option("--loads", a->loads, "ExternalLoads .xml for the GRF")->check(CLI::ExistingFile);
   run->add_option("--options", a->options, "options JSON (e.g. a previous job.json)")->check(CLI::ExistingFile);
@@ -51,17 +56,39 @@ void add_run_command(CLI::App& app) {
     in.model_path = input(a->model, "model");
     const std::string markers = input(a->markers, "markers");
     const std::string grf = input(a->grf, "grf"), loads = input(a->loads, "loads");
-    if (in.model_path.empty() || markers.empty())
-      throw InputError(a->options.empty() ? "cpgait run" : a->options, 0, "inputs", "give --model and --markers (or options that record them)");
-    in.markers = text::read_file(markers);
-    in.markers_name = markers;
+    in.calibration_path = input(a->calibration, "calibration");
+    in.tags_path = input(a->tags, "tags");
+    if (!a->videos.empty()) {
+      for (const std::string& v : a->videos) {
+        const auto eq = v.find('=');
+        in.videos.push_back(eq == std::string::npos ? fs::absolute(v).string() : v.substr(0, eq + 1) + fs::absolute(v.substr(eq + 1)).string());
+      }
+    } else if (options.inputs.contains("videos") && options.inputs["videos"].is_array()) {
+      for (const auto& v : options.inputs["videos"]) in.videos.push_back(v.get<std::string>());
+    }
+    if (in.model_path.empty() || (markers.empty() && !in.has_footage()))
+      throw InputError(a->options.empty() ? "cpgait run" : a->options, 0, "inputs",
+                       "give --model and --markers, or --model with --videos, --calibration and --tags (or options that record them)");
+    if (in.has_footage() && (in.calibration_path.empty() || in.tags_path.empty()))
+      throw InputError("cpgait run", 0, in.calibration_path.empty() ? "calibration" : "tags", "--videos needs --calibration and --tags");
+    if (!in.has_footage()) {
+      in.markers = text::read_file(markers);
+      in.markers_name = markers;
+    }
     if (!grf.empty()) in.grf = text::read_file(grf), in.grf_name = grf;
     if (!loads.empty()) in.loads = text::read_file(loads), in.loads_name = loads;
     in.name = !a->name.empty() ? a->name
               : options.inputs.contains("name") ? options.inputs["name"].get<std::string>()
-                                                : fs::path(markers).stem().string();
+                                                : in.has_footage() ? std::string("capture") : fs::path(markers).stem().string();
     if (!is_safe_file_name(in.name)) throw InputError("cpgait run", 0, "name", "output stem '" + in.name + "' is not a safe file name");
-    options.inputs = {{"model", in.model_path}, {"markers", markers}, {"name", in.name}};
+    options.inputs = {{"model", in.model_path}, {"name", in.name}};
+    if (in.has_footage()) {
+      options.inputs["videos"] = in.videos;
+      options.inputs["calibration"] = in.calibration_path;
+      options.inputs["tags"] = in.tags_path;
+    } else {
+      options.inputs["markers"] = markers;
+    }
     if (!grf.empty()) options.inputs["grf"] = grf;
     if (!loads.empty()) options.inputs["loads"] = loads;
     validate_inputs(in, options);

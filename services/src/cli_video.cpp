@@ -32,23 +32,6 @@ nlohmann::json detection_json(const video::TagDetection& d) {
           {"hamming", d.hamming}};
 }
 
-// Per frame and marker: RMS reprojection error (px) and the cameras used, as an OpenSim table.
-Storage capture_quality_table(const video::CaptureResult& r) {
-  std::vector<std::string> labels;
-  for (const auto& m : r.markers.marker_names) {
-    labels.push_back(m + "_reprojection_px");
-    labels.push_back(m + "_views");
-  }
-  Eigen::MatrixXd data(r.markers.num_frames(), static_cast<Eigen::Index>(labels.size()));
-  for (int f = 0; f < r.markers.num_frames(); ++f)
-    for (int m = 0; m < r.markers.num_markers(); ++m) {
-      data(f, 2 * m) = r.reprojection_px(f, m);
-      data(f, 2 * m + 1) = r.views(f, m);
-    }
-  return make_storage("capture quality: views 0 missing, 1 single-view pose, -1 gap-filled, n cameras", labels,
-                      r.markers.time_s, data, false);
-}
-
 }  // namespace
 
 void add_video_commands(CLI::App& app) {
@@ -158,7 +141,7 @@ void add_video_commands(CLI::App& app) {
     const std::string stem = (fs::path(k->out).parent_path() / fs::path(k->out).stem()).string();
     if (!fs::path(k->out).parent_path().empty()) ensure_directory(fs::path(k->out).parent_path().string());
     write_text_atomic(k->out, format_trc(r.markers, "mm"));
-    write_storage_atomic(capture_quality_table(r), stem + "_quality.sto");
+    write_storage_atomic(video::capture_quality_table(r), stem + "_quality.sto");
     write_text_atomic(stem + "_markers.xml", video::format_marker_set_xml(tags));
     for (const auto& w : r.summary.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::printf("%s\nwrote %s, %s_quality.sto, %s_markers.xml\n", r.summary.BriefReport().c_str(), k->out.c_str(), stem.c_str(),

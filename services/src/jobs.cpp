@@ -182,8 +182,11 @@ void JobRunner::run_trial(const TrialRecord& t) {
     in.name = t.name;
     in.model_path = model_path(options.model_id);
     in.marker_set_path = marker_set_path(options.model_id);
-    in.markers = text::read_file((dir / "inputs" / "markers.trc").string());
-    in.markers_name = "markers.trc";
+    load_footage_inputs((dir / "inputs").string(), in);
+    if (!in.has_footage()) {
+      in.markers = text::read_file((dir / "inputs" / "markers.trc").string());
+      in.markers_name = "markers.trc";
+    }
     if (fs::exists(dir / "inputs" / "grf.mot")) {
       in.grf = text::read_file((dir / "inputs" / "grf.mot").string());
       in.grf_name = "grf.mot";

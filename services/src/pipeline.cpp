@@ -110,7 +110,7 @@ PipelineOptions PipelineOptions::parse(const std::string& text, const std::strin
 
 PipelineOptions PipelineOptions::from_json(const json& j, const std::string& source) {
   PipelineOptions o;
-  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "inputs"}, source, "");
+  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "capture", "inputs"}, source, "");
   if (j.contains("model")) {
     if (!j["model"].is_string()) bad(source, "model", "expected a model id string");
     o.model_id = j["model"].get<std::string>();
@@ -164,6 +164,27 @@ PipelineOptions PipelineOptions::from_json(const json& j, const std::string& sou
     }
     o.so_cutoff_hz = number(so, "lowpass_cutoff_hz", o.so_cutoff_hz, source, "so.lowpass_cutoff_hz");
   }
+  if (j.contains("capture")) {
+    const auto& c = j["capture"];
+    only_keys(c, {"max_reprojection_px", "gap_fill_s", "single_view", "sync", "decimate"}, source, "capture.");
+    o.capture.triangulation.max_reprojection_error_px =
+        number(c, "max_reprojection_px", o.capture.triangulation.max_reprojection_error_px, source, "capture.max_reprojection_px");
+    if (!(o.capture.triangulation.max_reprojection_error_px > 0)) bad(source, "capture.max_reprojection_px", "must be positive");
+    o.capture.max_gap_fill_s = number(c, "gap_fill_s", o.capture.max_gap_fill_s, source, "capture.gap_fill_s");
+    if (!(o.capture.max_gap_fill_s >= 0 && o.capture.max_gap_fill_s <= 1)) bad(source, "capture.gap_fill_s", "expected 0 to 1 s");
+    if (c.contains("single_view")) {
+      if (!c["single_view"].is_boolean()) bad(source, "capture.single_view", "expected true or false");
+      o.capture.single_view_pose = c["single_view"].get<bool>();
+    }
+    if (c.contains("sync")) {
+      const std::string sync = c["sync"].is_string() ? c["sync"].get<std::string>() : "";
+      if (sync != "index" && sync != "time") bad(source, "capture.sync", "expected \"index\" or \"time\"");
+      o.capture.sync = sync == "time" ? video::CaptureOptions::Sync::kTime : video::CaptureOptions::Sync::kIndex;
+    }
+    const double decimate = number(c, "decimate", o.capture.detector.quad_decimate, source, "capture.decimate");
+    if (!(decimate >= 1 && decimate <= 8)) bad(source, "capture.decimate", "expected 1 to 8");
+    o.capture.detector.quad_decimate = static_cast<float>(decimate);
+  }
   if (j.contains("inputs")) {
     if (!j["inputs"].is_object()) bad(source, "inputs", "expected an object of file paths");
     o.inputs = j["inputs"];
@@ -180,6 +201,11 @@ json PipelineOptions::to_json() const {
   if (ik_tasks) j["ik"]["tasks"] = *ik_tasks;
   j["id"]["lowpass_cutoff_hz"] = id_cutoff_hz;
   j["so"] = {{"activation_exponent", so_exponent}, {"use_muscle_physiology", so_physiology}, {"lowpass_cutoff_hz", so_cutoff_hz}};
+  j["capture"] = {{"max_reprojection_px", capture.triangulation.max_reprojection_error_px},
+                  {"gap_fill_s", capture.max_gap_fill_s},
+                  {"single_view", capture.single_view_pose},
+                  {"sync", capture.sync == video::CaptureOptions::Sync::kTime ? "time" : "index"},
+                  {"decimate", capture.detector.quad_decimate}};
   if (!inputs.empty()) j["inputs"] = inputs;
   return j;
 }
@@ -192,8 +218,28 @@ OsimReadResult read_trial_model(const TrialInputs& in) {
 }
 }  // namespace
 
+void load_footage_inputs(const std::string& inputs_dir, TrialInputs& in) {
+  const fs::path dir(inputs_dir);
+  if (!fs::is_directory(dir / "videos")) return;
+  std::vector<fs::path> videos;
+  for (const auto& e : fs::directory_iterator(dir / "videos"))
+    if (e.is_regular_file()) videos.push_back(e.path());
+  std::sort(videos.begin(), videos.end());
+  for (const fs::path& v : videos) in.videos.push_back(v.stem().string() + "=" + v.string());
+  for (const char* ext : {".json", ".yml", ".yaml", ".xml"})
+    if (fs::exists(dir / (std::string("calibration") + ext))) in.calibration_path = (dir / (std::string("calibration") + ext)).string();
+  in.tags_path = (dir / "tags.json").string();
+}
+
 void validate_inputs(const TrialInputs& in, const PipelineOptions& options) {
-  const Model model = read_trial_model(in).model;
+  Model model = read_trial_model(in).model;
+  if (in.has_footage()) {
+    const video::CameraRig rig = video::read_calibration(in.calibration_path);
+    const video::TagSet tags = video::read_tag_set(in.tags_path);
+    model = video::with_tag_markers(model, tags, in.tags_path);
+    for (const auto& [camera, path] : video::match_videos_to_cameras(rig, in.videos)) video::probe_video(path);
+    return;  // the markers exist only after the capture stage
+  }
   const MarkerTrial trial = parse_trc(in.markers, in.markers_name);
   if (!in.grf.empty() || !in.loads.empty()) {
     if (in.grf.empty()) throw InputError(in.loads_name, 0, "grf", "external loads were given without their GRF data (.mot)");
@@ -219,8 +265,39 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     result.files.push_back(file);
   };
   const OsimReadResult mr = read_trial_model(in);
-  const Model& model = mr.model;
-  const MarkerTrial trial = parse_trc(in.markers, in.markers_name);
+  Model model = mr.model;
+  MarkerTrial trial;
+  // Capture: AprilTag footage -> virtual markers (the tag corners), which the model gains as markers.
+  if (in.has_footage()) {
+    StageTimer timer(observer, "capture");
+    StageProgress progress(observer, "capture");
+    const video::CameraRig rig = video::read_calibration(in.calibration_path);
+    const video::TagSet tags = video::read_tag_set(in.tags_path);
+    model = video::with_tag_markers(model, tags, in.tags_path);
+    video::CaptureResult r = video::capture_markers(rig, tags, in.videos, options.capture, &progress);
+    r.markers.name = in.name + ".trc";
+    write_text_atomic((fs::path(out_dir) / (in.name + ".trc")).string(), format_trc(r.markers, "mm"));
+    result.files.push_back(in.name + ".trc");
+    write(video::capture_quality_table(r), in.name + "_capture_quality.sto");
+    write_text_atomic((fs::path(out_dir) / (in.name + "_tag_markers.xml")).string(), video::format_marker_set_xml(tags));
+    result.files.push_back(in.name + "_tag_markers.xml");
+    const auto& cs = r.summary;
+    const json summary = {{"frames", cs.num_frames},
+                          {"cameras", cs.cameras},
+                          {"frames_per_second", cs.detect_seconds > 0 ? cs.num_frames * static_cast<double>(cs.cameras.size()) / cs.detect_seconds : 0.0},
+                          {"corners_triangulated", cs.corners_triangulated},
+                          {"corners_single_view", cs.corners_single_view},
+                          {"corners_gap_filled", cs.corners_filled},
+                          {"corners_missing", cs.corners_missing},
+                          {"views_rejected", cs.views_rejected},
+                          {"median_reprojection_px", cs.median_reprojection_px},
+                          {"warnings", cs.warnings}};
+    result.summary["capture"] = summary;
+    trial = std::move(r.markers);
+    if (observer) observer->stage_finished("capture", timer.seconds(), summary);
+  } else {
+    trial = parse_trc(in.markers, in.markers_name);
+  }
   std::unique_ptr<AppliedLoads> loads;
   if (!in.grf.empty())
     loads = std::make_unique<AppliedLoads>(model, parse_external_loads(in.loads, in.loads_name), parse_storage(in.grf, in.grf_name));

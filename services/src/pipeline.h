@@ -10,6 +10,7 @@
 
 #include "cpgait/capture/ik_setup.h"
 #include "cpgait/ik/inverse_kinematics.h"
+#include "cpgait/video/capture_markers.h"
 
 namespace cpgait::services {
 
@@ -21,6 +22,9 @@ namespace cpgait::services {
 //           "tasks": {IK task JSON, see capture/ik_setup.h}}   [every marker, weight 1]
 //    "id": {"lowpass_cutoff_hz": 6}   [6; negative: no filtering]
 //    "so": {"activation_exponent": 2, "use_muscle_physiology": true, "lowpass_cutoff_hz": 6}
+//    "capture": {"max_reprojection_px": 2, "gap_fill_s": 0.05, "single_view": true,
+//                "sync": "index"|"time", "decimate": 3}    only with AprilTag footage (a "capture"
+//                                     stage then runs first and its markers feed IK)
 //    "inputs": {"model","markers","grf","loads": paths}   cpgait run only: what it ran on}
 struct PipelineOptions {
   std::string model_id;
@@ -32,6 +36,7 @@ struct PipelineOptions {
   double so_exponent = 2.0;
   bool so_physiology = true;
   double so_cutoff_hz = 6.0;
+  video::CaptureOptions capture;
   nlohmann::json inputs = nlohmann::json::object();
 
   // Throws InputError naming the JSON field ("ik.bounds", ...) for anything invalid or unknown.
@@ -41,7 +46,7 @@ struct PipelineOptions {
   bool wants(const std::string& stage) const;
 };
 
-extern const std::vector<std::string> kStages;  // in run order
+extern const std::vector<std::string> kStages;  // in run order (capture runs first when footage is given)
 
 // A trial's inputs as text (uploads are held in memory; the CLI reads files).
 struct TrialInputs {
@@ -51,7 +56,16 @@ struct TrialInputs {
   std::string markers, markers_name;
   std::string grf, grf_name;      // empty when there are no loads
   std::string loads, loads_name;
+  // AprilTag footage instead of markers: one video per camera (NAME=PATH, or a file named after its
+  // camera), the cameras' calibration and the tag set, as files.
+  std::vector<std::string> videos;
+  std::string calibration_path, tags_path;
+  bool has_footage() const { return !videos.empty(); }
 };
+
+// Where an uploaded trial keeps footage: inputs/videos/<camera>.<ext>, inputs/calibration.<ext>,
+// inputs/tags.json. Fills in.videos (NAME=PATH), in.calibration_path and in.tags_path when present.
+void load_footage_inputs(const std::string& inputs_dir, TrialInputs& in);
 
 // Checks every input parses (TRC, GRF, loads XML, the model) without running anything; throws
 // InputError naming the file, line and field.

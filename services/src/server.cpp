@@ -185,12 +185,22 @@ class Api {
 
   void upload_trial(const httplib::Request& req, httplib::Response& res) {
     if (!req.is_multipart_form_data())
-      return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'markers' part (.trc)");
-    if (!req.has_file("markers"))
-      return send_error(res, 400, "missing_part", "a 'markers' part (.trc) is required", "markers");
-    for (const char* p : {"markers", "grf", "loads", "options"})
+      return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'markers' part (.trc) or 'videos' parts");
+    const auto video_parts = req.files.equal_range("videos");
+    const bool footage = video_parts.first != video_parts.second;
+    if (!footage && !req.has_file("markers"))
+      return send_error(res, 400, "missing_part", "a 'markers' part (.trc), or 'videos' parts with 'calibration' and 'tags', is required", "markers");
+    if (footage && req.has_file("markers"))
+      return send_error(res, 400, "bad_request", "give either 'markers' or 'videos', not both", "markers");
+    for (const char* p : {"calibration", "tags"})
+      if (footage && !req.has_file(p))
+        return send_error(res, 400, "missing_part", std::string("videos need a '") + p + "' part", p);
+    for (const char* p : {"markers", "grf", "loads", "options", "calibration", "tags"})
       if (req.has_file(p) && !req.get_file_value(p).filename.empty() && !is_safe_file_name(req.get_file_value(p).filename))
         return send_error(res, 400, "bad_file_name", "unsafe file name '" + req.get_file_value(p).filename + "'", p);
+    for (auto it = video_parts.first; it != video_parts.second; ++it)
+      if (!is_safe_file_name(it->second.filename))
+        return send_error(res, 400, "bad_file_name", "unsafe or missing video file name '" + it->second.filename + "' (name each video after its camera)", "videos");
     PipelineOptions options;
     const std::string options_text = req.has_file("options") ? req.get_file_value("options").content : "";
     try {
@@ -209,48 +219,80 @@ class Api {
       return send_error(res, 422, "unknown_model", "no model with id '" + options.model_id + "' (upload one to /api/v1/models)", "model");
     options.inputs = json::object();
 
-    const auto markers = req.get_file_value("markers");
     TrialInputs in;
-    in.name = markers.filename.empty() ? "trial" : fs::path(markers.filename).stem().string();
+    const std::string first_name = footage ? std::string("capture") : req.get_file_value("markers").filename;
+    in.name = first_name.empty() ? "trial" : fs::path(first_name).stem().string();
     if (!is_safe_file_name(in.name)) in.name = "trial";
     in.model_path = jobs_.model_path(options.model_id);
     in.marker_set_path = jobs_.marker_set_path(options.model_id);
-    in.markers = markers.content;
-    in.markers_name = markers.filename.empty() ? "markers" : markers.filename;
+    if (!footage) {
+      const auto markers = req.get_file_value("markers");
+      in.markers = markers.content;
+      in.markers_name = markers.filename.empty() ? "markers" : markers.filename;
+    }
     if (req.has_file("grf")) in.grf = req.get_file_value("grf").content, in.grf_name = req.get_file_value("grf").filename;
     if (req.has_file("loads")) in.loads = req.get_file_value("loads").content, in.loads_name = req.get_file_value("loads").filename;
     if (in.grf_name.empty()) in.grf_name = "grf";
     if (in.loads_name.empty()) in.loads_name = "loads";
-    std::string part = "markers";
-    try {
-      validate_inputs(in, options);
-    } catch (const InputError& e) {
-      for (const char* p : {"grf", "loads"})
-        if (e.file() == (std::string(p) == "grf" ? in.grf_name : in.loads_name)) part = p;
-      return send_input_error(res, e, part);
-    }
-    // Nothing is stored until everything validated; the folder appears complete (rename).
+
+    // Everything is written into a temporary folder, validated there, and appears complete (rename).
     TrialRecord t;
     t.id = new_id();
-    t.name = in.name;
-    t.status = "queued";
-    t.created_at = t.updated_at = now_iso8601();
-    t.options = options.to_json();
-    for (const auto& s : kStages)
-      t.stages.push_back({s, options.wants(s) ? "pending" : "skipped", 0, 0, json::object()});
     const fs::path tmp = fs::path(o_.data_dir) / "trials" / (t.id + ".tmp"), dir = jobs_.trial_dir(t.id);
+    auto discard = [&] {
+      std::error_code ec;
+      fs::remove_all(tmp, ec);
+    };
     try {
       ensure_directory((tmp / "inputs").string());
-      write_text_atomic((tmp / "inputs" / "markers.trc").string(), in.markers);
+      if (footage) {
+        ensure_directory((tmp / "inputs" / "videos").string());
+        for (auto it = video_parts.first; it != video_parts.second; ++it)
+          write_text_atomic((tmp / "inputs" / "videos" / it->second.filename).string(), it->second.content);
+        const auto cal = req.get_file_value("calibration");
+        std::string ext = fs::path(cal.filename).extension().string();
+        if (ext != ".yml" && ext != ".yaml" && ext != ".xml") ext = ".json";
+        write_text_atomic((tmp / "inputs" / ("calibration" + ext)).string(), cal.content);
+        write_text_atomic((tmp / "inputs" / "tags.json").string(), req.get_file_value("tags").content);
+        load_footage_inputs((tmp / "inputs").string(), in);
+      } else {
+        write_text_atomic((tmp / "inputs" / "markers.trc").string(), in.markers);
+      }
       if (!in.grf.empty()) {
         write_text_atomic((tmp / "inputs" / "grf.mot").string(), in.grf);
         write_text_atomic((tmp / "inputs" / "loads.xml").string(), in.loads);
       }
+    } catch (const std::exception& e) {
+      discard();
+      return send_error(res, 500, "storage_failed", e.what());
+    }
+    try {
+      validate_inputs(in, options);
+    } catch (const InputError& e) {
+      discard();
+      std::string part = footage ? "videos" : "markers";
+      const std::string file = e.file();
+      if (file == in.grf_name) part = "grf";
+      if (file == in.loads_name) part = "loads";
+      if (footage && file == in.calibration_path) part = "calibration";
+      if (footage && file == in.tags_path) part = "tags";
+      // Errors name the uploaded file, not where the server keeps it.
+      const std::string shown = fs::path(file).filename().string();
+      return send_input_error(res, InputError(shown, e.line(), e.field(), e.message()), part);
+    }
+    t.name = in.name;
+    t.status = "queued";
+    t.created_at = t.updated_at = now_iso8601();
+    t.options = options.to_json();
+    if (footage) t.stages.push_back({"capture", "pending", 0, 0, json::object()});
+    for (const auto& s : kStages)
+      t.stages.push_back({s, options.wants(s) ? "pending" : "skipped", 0, 0, json::object()});
+    try {
       fs::rename(tmp, dir);
       store_.insert_trial(t);
     } catch (const std::exception& e) {
+      discard();
       std::error_code ec;
-      fs::remove_all(tmp, ec);
       fs::remove_all(dir, ec);
       return send_error(res, 500, "storage_failed", e.what());
     }
@@ -379,15 +421,20 @@ class Api {
   void kinematics(const std::string& id, httplib::Response& res) {
     auto t = find(id, res);
     if (!t) return;
-    if (t->stages.empty() || t->stages[0].state != "done")
+    const auto ik = std::find_if(t->stages.begin(), t->stages.end(), [](const StageRecord& s) { return s.name == "ik"; });
+    if (ik == t->stages.end() || ik->state != "done")
       return send_error(res, 409, "not_ready", "inverse kinematics is not done yet", "stage");
     const fs::path dir = jobs_.trial_dir(id), inputs = dir / "inputs";
     const std::string model_id = t->options.value("model", "");
     const bool have_grf = fs::exists(inputs / "grf.mot");
+    // Footage trials: the markers are the capture stage's TRC, on the tag corners it added to the model.
+    const bool footage = fs::is_directory(inputs / "videos");
+    const std::string markers = footage ? (result_dir(*t) / (t->name + ".trc")).string() : (inputs / "markers.trc").string();
+    const std::string marker_set = footage ? (result_dir(*t) / (t->name + "_tag_markers.xml")).string() : jobs_.marker_set_path(model_id);
     try {
       send_json(res, 200,
-                trial_kinematics_json(jobs_.model_path(model_id), jobs_.marker_set_path(model_id),
-                                      (result_dir(*t) / (t->name + "_ik.mot")).string(), text::read_file((inputs / "markers.trc").string()),
+                trial_kinematics_json(jobs_.model_path(model_id), marker_set,
+                                      (result_dir(*t) / (t->name + "_ik.mot")).string(), text::read_file(markers),
                                       have_grf ? text::read_file((inputs / "grf.mot").string()) : "",
                                       have_grf ? text::read_file((inputs / "loads.xml").string()) : ""));
     } catch (const std::exception& e) {

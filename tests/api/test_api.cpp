@@ -14,6 +14,7 @@
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/fixtures/tag_footage.h"
 #include "cpgait/model/osim_reader.h"
 #include "server_process.h"
 #include "test_support.h"
@@ -405,5 +406,65 @@ TEST(ApiReference, FiftyConcurrentUploads) {
   std::printf("[ info ] 50 concurrent subject01 uploads (2 workers): all done in %.2f s; server peak RSS %.1f MB; "
               "GET /trials/{id} while running: p50 %.2f ms, p95 %.2f ms over %zu requests\n",
               wall, peak_kb / 1024.0, latency_ms[latency_ms.size() / 2], latency_ms[latency_ms.size() * 95 / 100], latency_ms.size());
+  fs::remove_all(dir);
+}
+
+// AprilTag footage as a trial's input: videos + calibration + tag set upload, a capture stage makes
+// the markers, IK runs on them; bad footage inputs are refused naming the part.
+TEST(Api, FootageUploadRunsCaptureThenIk) {
+  const std::string dir = cpgait::refdata::temp_dir("api_footage");
+  cpgait::fixtures::FootageOptions fo;
+  fo.duration_s = 0.5;
+  fo.rate_hz = 30;
+  const auto wf = cpgait::fixtures::render_walk_footage(dir + "/footage", fo);
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  c.set_read_timeout(120, 0);
+  auto form = [&](const std::vector<std::string>& videos, const std::string& calibration, const std::string& tags) {
+    httplib::MultipartFormDataItems f;
+    for (const auto& v : videos) f.push_back({"videos", slurp(v), fs::path(v).filename().string(), "video/x-msvideo"});
+    f.push_back({"calibration", calibration, "calibration.json", "application/json"});
+    f.push_back({"tags", tags, "tags.json", "application/json"});
+    f.push_back({"options", json{{"model", "walker"}, {"stages", {"ik"}}}.dump(), "options.json", "application/json"});
+    return f;
+  };
+  const std::string calibration = slurp(wf.calibration_path), tags = slurp(wf.tags_path);
+  auto r = c.Post("/api/v1/trials", form(wf.videos, calibration, tags));
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = body(r)["id"];
+  ASSERT_EQ(wait_finished(c, id, 120), "done") << server.log();
+  const json t = body(c.Get(("/api/v1/trials/" + id).c_str()));
+  ASSERT_EQ(t["stages"][0]["name"], "capture");
+  EXPECT_EQ(t["stages"][0]["state"], "done");
+  EXPECT_GT(t["stages"][0]["summary"]["corners_triangulated"].get<int>(), 500);
+  EXPECT_EQ(t["stages"][1]["name"], "ik");
+  EXPECT_EQ(t["stages"][1]["state"], "done");
+  EXPECT_LT(t["stages"][1]["summary"]["marker_rms_mean_m"].get<double>(), 0.002);
+  for (const char* f : {"capture.trc", "capture_capture_quality.sto", "capture_tag_markers.xml", "capture_ik.mot"})
+    EXPECT_EQ(c.Get(("/api/v1/trials/" + id + "/files/" + f).c_str())->status, 200) << f;
+  const auto k = c.Get(("/api/v1/trials/" + id + "/kinematics").c_str());
+  ASSERT_EQ(k->status, 200) << k->body;
+  EXPECT_EQ(body(k)["measured_marker_names"].size(), 4 * cpgait::fixtures::tagged_walker().tags.tags.size());
+
+  // Bad footage inputs: 4xx naming the part, nothing stored.
+  const auto before = body(c.Get("/api/v1/trials"))["total"].get<int>();
+  auto err = [&](const httplib::Result& res) {
+    const json e = body(res)["error"];
+    return std::make_pair(res->status, e.value("part", e.value("field", std::string())));
+  };
+  std::vector<std::string> renamed = wf.videos;
+  fs::copy_file(wf.videos[0], dir + "/cam9.avi");
+  renamed[0] = dir + "/cam9.avi";
+  EXPECT_EQ(err(c.Post("/api/v1/trials", form(renamed, calibration, tags))), std::make_pair(422, std::string("videos")));
+  { std::ofstream(dir + "/cam0.avi") << "not a video"; }
+  std::vector<std::string> broken = wf.videos;
+  broken[0] = dir + "/cam0.avi";
+  EXPECT_EQ(err(c.Post("/api/v1/trials", form(broken, calibration, tags))), std::make_pair(422, std::string("videos")));
+  EXPECT_EQ(err(c.Post("/api/v1/trials", form(wf.videos, calibration, "{\"tags\": [{\"id\": 1}]}"))).second, "tags");
+  EXPECT_EQ(err(c.Post("/api/v1/trials", form(wf.videos, "{\"cameras\": 3", tags))).second, "calibration");
+  httplib::MultipartFormDataItems no_tags = form(wf.videos, calibration, tags);
+  no_tags.erase(std::remove_if(no_tags.begin(), no_tags.end(), [](const auto& i) { return i.name == "tags"; }), no_tags.end());
+  EXPECT_EQ(err(c.Post("/api/v1/trials", no_tags)), std::make_pair(400, std::string("tags")));
+  EXPECT_EQ(body(c.Get("/api/v1/trials"))["total"].get<int>(), before);
   fs::remove_all(dir);
 }

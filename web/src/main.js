@@ -112,7 +112,11 @@ async function uploadView() {
   const fieldError = (name) => h('div', { class: 'field-error', 'data-error-for': name });
   const row = (label, input, name) => h('div', { class: 'row' }, h('label', { for: name }, label), input, fieldError(name));
   const form = h('form', { id: 'upload' },
-    row('Markers (.trc)', h('input', { type: 'file', id: 'markers', name: 'markers', accept: '.trc', required: true }), 'markers'),
+    row('Markers (.trc)', h('input', { type: 'file', id: 'markers', name: 'markers', accept: '.trc' }), 'markers'),
+    h('p', { class: 'muted' }, 'or AprilTag footage: one video per camera, named after its camera in the calibration'),
+    row('Videos', h('input', { type: 'file', id: 'videos', name: 'videos', accept: 'video/*,.avi,.mp4,.mkv', multiple: true }), 'videos'),
+    row('Calibration (.json, .yml)', h('input', { type: 'file', id: 'calibration', name: 'calibration', accept: '.json,.yml,.yaml,.xml' }), 'calibration'),
+    row('Tag set (.json)', h('input', { type: 'file', id: 'tags', name: 'tags', accept: '.json' }), 'tags'),
     row('GRF (.mot)', h('input', { type: 'file', id: 'grf', name: 'grf', accept: '.mot,.sto' }), 'grf'),
     row('Loads (.xml)', h('input', { type: 'file', id: 'loads', name: 'loads', accept: '.xml' }), 'loads'),
     row('Model', h('select', { id: 'model', name: 'model' }, models.map((m) => h('option', { value: m.id }, `${m.name} (${m.summary.coordinates} coordinates, ${m.summary.muscles} muscles)`))), 'model'),
@@ -138,7 +142,8 @@ async function uploadView() {
     ev.preventDefault();
     clearErrors(form);
     const fd = new FormData();
-    for (const p of ['markers', 'grf', 'loads']) { const f = form.querySelector('#' + p).files[0]; if (f) fd.append(p, f, f.name); }
+    for (const p of ['markers', 'grf', 'loads', 'calibration', 'tags']) { const f = form.querySelector('#' + p).files[0]; if (f) fd.append(p, f, f.name); }
+    for (const v of form.querySelector('#videos').files) fd.append('videos', v, v.name);
     const options = { model: form.querySelector('#model').value };
     const t0 = form.querySelector('#t0').value, t1 = form.querySelector('#t1').value;
     if (t0 !== '' && t1 !== '') options.time_range = [Number(t0), Number(t1)];
@@ -148,7 +153,7 @@ async function uploadView() {
       const r = await api('/trials', { method: 'POST', body: fd });
       location.hash = `#/trial/${r.id}`;
     } catch (err) {
-      showError(form, err, (d) => (['markers', 'grf', 'loads'].includes(d.part) ? d.part : ['model', 'time_range', 'stages'].includes(d.field) ? d.field : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
+      showError(form, err, (d) => (['markers', 'grf', 'loads', 'videos', 'calibration', 'tags'].includes(d.part) ? d.part : ['model', 'time_range', 'stages', 'videos', 'calibration', 'tags'].includes(d.field) ? d.field : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
     }
   });
   modelUpload.addEventListener('submit', async (ev) => {

@@ -102,6 +102,30 @@ std::vector<std::pair<int, std::string>> match_videos_to_cameras(const CameraRig
   return out;
 }
 
+void probe_video(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw InputError(path, 0, "videos", "file not found");
+  cv::VideoCapture video(path, cv::CAP_FFMPEG);
+  cv::Mat frame;
+  if (!video.isOpened() || !video.read(frame) || frame.empty())
+    throw InputError(path, 0, "videos", "cannot decode as a video (FFmpeg could not read a frame)");
+}
+
+Storage capture_quality_table(const CaptureResult& r) {
+  std::vector<std::string> labels;
+  for (const auto& m : r.markers.marker_names) {
+    labels.push_back(m + "_reprojection_px");
+    labels.push_back(m + "_views");
+  }
+  Eigen::MatrixXd data(r.markers.num_frames(), static_cast<Eigen::Index>(labels.size()));
+  for (int f = 0; f < r.markers.num_frames(); ++f)
+    for (int m = 0; m < r.markers.num_markers(); ++m) {
+      data(f, 2 * m) = r.reprojection_px(f, m);
+      data(f, 2 * m + 1) = r.views(f, m);
+    }
+  return make_storage("capture quality (views: 0 missing, 1 single-view pose, -1 gap-filled, n cameras)", labels,
+                      r.markers.time_s, data, false);
+}
+
 CameraFootage detect_video(int camera, const std::string& path, const TagDetectorOptions& detector_options,
                            const TagTrackerOptions& tracker_options, double fallback_rate_hz) {
   if (!std::filesystem::exists(path)) throw InputError(path, 0, "videos", "file not found");

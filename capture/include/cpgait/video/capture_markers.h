@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "cpgait/capture/storage.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/progress.h"
 #include "cpgait/video/camera.h"
@@ -75,6 +76,9 @@ struct CaptureResult {
 std::vector<std::pair<int, std::string>> match_videos_to_cameras(const CameraRig& rig,
                                                                  const std::vector<std::string>& videos);
 
+// Opens the video and decodes its first frame; throws InputError naming the file otherwise.
+void probe_video(const std::string& path);
+
 // Decodes and detects; throws InputError for a video that cannot be opened or decoded.
 CameraFootage detect_video(int camera, const std::string& path, const TagDetectorOptions& detector,
                            const TagTrackerOptions& tracker = {}, double fallback_rate_hz = 0);
@@ -82,6 +86,9 @@ CameraFootage detect_video(int camera, const std::string& path, const TagDetecto
 // Aligns and triangulates already-detected footage (tests and the service feed this directly).
 CaptureResult triangulate_footage(const CameraRig& rig, const TagSet& tags, const std::vector<CameraFootage>& footage,
                                   const CaptureOptions& options = {});
+
+// Per frame and marker: RMS reprojection error (px) and the cameras used, as an OpenSim table.
+Storage capture_quality_table(const CaptureResult& result);
 
 CaptureResult capture_markers(const CameraRig& rig, const TagSet& tags, const std::vector<std::string>& videos,
                               const CaptureOptions& options = {}, Progress* progress = nullptr);
