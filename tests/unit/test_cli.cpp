@@ -6,6 +6,11 @@
 #include <filesystem>
 
 #include "cpgait/capture/storage.h"
+#include "cpgait/fixtures/tag_footage.h"
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <set>
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -108,5 +113,47 @@ TEST(CliReference, IdAndSoFromTheCommandLine) {
   CliRun old = run("run-tool " + pl + "setup_static_optimization.xml --results " + dir);
   EXPECT_EQ(old.status, 2);
   EXPECT_NE(old.output.find("foot_floor_loads.xml:"), std::string::npos) << old.output;
+  fs::remove_all(dir);
+}
+
+TEST(Cli, DetectCalibrateAndCaptureFromTheCommandLine) {
+  const std::string dir = cpgait::refdata::temp_dir("cli_video");
+  // detect: a rendered image with two tags; JSON with ids and four corners each.
+  const cpgait::video::Camera cam = cpgait::fixtures::lab_rig()[0];
+  std::vector<cv::Mat> textures{cpgait::fixtures::tag_texture("tag36h11", 3), cpgait::fixtures::tag_texture("tag36h11", 17)};
+  std::vector<cpgait::fixtures::Quad> quads;
+  for (int i = 0; i < 2; ++i) {
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.linear() = cam.rotation_cam_from_world.transpose();
+    X.translation() = cam.position_world_m() + X.linear() * Eigen::Vector3d(-0.3 + 0.6 * i, 0, 2.5);
+    quads.push_back(cpgait::fixtures::tag_quad("tag36h11", 0.12, X, i));
+  }
+  std::mt19937 rng(1);
+  cv::imwrite(dir + "/tags.png", cpgait::fixtures::ViewRenderer(cam, {}).render({quads}, textures, rng));
+  const CliRun d = run("detect " + dir + "/tags.png");
+  ASSERT_EQ(d.status, 0) << d.output;
+  const auto j = nlohmann::json::parse(d.output);
+  ASSERT_EQ(j.size(), 1u);
+  std::set<int> ids;
+  for (const auto& t : j[0]["detections"]) {
+    ids.insert(t["id"].get<int>());
+    EXPECT_EQ(t["corners_px"].size(), 4u);
+  }
+  EXPECT_EQ(ids, (std::set<int>{3, 17}));
+  EXPECT_EQ(run("detect " + dir + "/missing.png").status, 2);
+  // capture: a video for a camera the calibration does not have is refused, naming it.
+  cpgait::video::write_calibration(cpgait::fixtures::lab_rig(), dir + "/cal.json");
+  {
+    std::ofstream(dir + "/tags.json") << cpgait::video::format_tag_set_json(cpgait::fixtures::tagged_walker().tags);
+    std::ofstream(dir + "/side.avi") << "x";
+  }
+  const CliRun c = run("capture --videos " + dir + "/side.avi --calibration " + dir + "/cal.json --tags " + dir + "/tags.json -o " + dir + "/m.trc");
+  EXPECT_EQ(c.status, 2);
+  EXPECT_NE(c.output.find("no camera named 'side'"), std::string::npos) << c.output;
+  // calibrate: a board file with a bad field is refused before any video is read.
+  { std::ofstream(dir + "/board.json") << R"({"rows": 5, "cols": 6, "tag_size_m": 40})"; }
+  const CliRun b = run("calibrate --board " + dir + "/board.json --videos " + dir + "/side.avi -o " + dir + "/c.json");
+  EXPECT_EQ(b.status, 2);
+  EXPECT_NE(b.output.find("tag_size_m"), std::string::npos) << b.output;
   fs::remove_all(dir);
 }
