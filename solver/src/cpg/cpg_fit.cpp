@@ -10,6 +10,7 @@
 #include <random>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/cpg/pattern_layer.h"
 #include "cpgait/optim/nnls.h"
 
 namespace cpgait {
@@ -85,9 +86,22 @@ bool limit_cycle(const MatsuokaNetwork& n, LimitCycle& out) {
     const int i = std::min(static_cast<int>(pos), steps - 2);
     const double a = pos - i;
     out.outputs.row(k) = (1 - a) * y.row(i) + a * y.row(i + 1);
-    out.states[k] = a < 0.5 ? states[i] : states[i + 1];
+    // Interpolated, not nearest: pattern neurons amplify the rhythm, so its start must be exact.
+    out.states[k].x = (1 - a) * states[i].x + a * states[i + 1].x;
+    out.states[k].f = (1 - a) * states[i].f + a * states[i + 1].f;
   }
   return true;
+}
+
+// The network's state at a phase of its limit cycle (interpolated between the sampled phases).
+MatsuokaState state_at_phase(const LimitCycle& c, double phase) {
+  double ph = std::fmod(phase, 1.0);
+  if (ph < 0) ph += 1.0;
+  const double pos = ph * kFinePhases;
+  const int i = static_cast<int>(pos) % kFinePhases, j = (i + 1) % kFinePhases;
+  const double a = pos - std::floor(pos);
+  return {(1 - a) * c.states[static_cast<std::size_t>(i)].x + a * c.states[static_cast<std::size_t>(j)].x,
+          (1 - a) * c.states[static_cast<std::size_t>(i)].f + a * c.states[static_cast<std::size_t>(j)].f};
 }
 
 // The network's outputs at the target's phases, shifted by `phase` (fraction of a cycle).
@@ -146,6 +160,80 @@ void set_bounds(ceres::Problem& problem, double* p, const Layout& L) {
   for (int i = 0; i < L.neurons; ++i) bound(3 + i, 0.2, 10.0);
   for (int i = 0; i < L.n_cross; ++i) bound(3 + L.neurons + i, 0.0, 4.0);
   bound(L.phase(), -1.0, 2.0);  // periodic: starts spread it over the cycle
+}
+
+// Gives every active muscle its own pattern neurons driven by the fitted rhythm (fitted one muscle at
+// a time, in parallel) and rebuilds the model's network, map and start state around them.
+void add_pattern_layer(const LimitCycle& c, double phase, const Eigen::MatrixXd& target, const CpgFitOptions& o, double scale,
+                       CpgModel& m, Eigen::MatrixXd& fitted) {
+  if (o.pattern_units < 1 || o.pattern_units > 2) throw std::invalid_argument("fit_cpg: pattern_units must be 0, 1 or 2");
+  const int S = static_cast<int>(target.rows()), M = static_cast<int>(target.cols()), R = m.network.size(), U = o.pattern_units;
+  const Eigen::MatrixXd rhythm = at_phases(c, S, phase);  // aligned: row 0 is the target's phase 0
+  std::vector<int> active;
+  for (int k = 0; k < M; ++k)
+    if (target.col(k).maxCoeff() > o.active_threshold) active.push_back(k);
+  std::vector<PatternNeurons> units(active.size());
+  std::vector<Eigen::VectorXd> fits(active.size());
+  {
+    std::atomic<std::size_t> next{0};
+    std::vector<std::thread> pool;
+    const unsigned threads = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(), static_cast<unsigned>(active.size())));
+    for (unsigned t = 0; t < threads; ++t)
+      pool.emplace_back([&] {
+        for (std::size_t i; (i = next++) < active.size();) {
+          const Eigen::VectorXd y = target.col(active[i]);
+          const unsigned seed = o.seed * 7919u + static_cast<unsigned>(active[i]);
+          units[i] = fit_pattern_neurons(rhythm, c.period, y, U, o.pattern_starts, seed, fits[i]);
+          // A poor fit is usually a start whose neurons never fired: try again from more starts.
+          if (r_squared(y, fits[i]) < 0.85) {
+            Eigen::VectorXd again;
+            PatternNeurons second = fit_pattern_neurons(rhythm, c.period, y, U, 3 * o.pattern_starts, seed + 104729u, again);
+            if (r_squared(y, again) > r_squared(y, fits[i])) units[i] = second, fits[i] = again;
+          }
+        }
+      });
+    for (auto& t : pool) t.join();
+  }
+  const int N = R + U * static_cast<int>(active.size());
+  MatsuokaNetwork n;
+  n.tau_r_s = Eigen::VectorXd::Constant(N, scale);  // Tr = 1 in the fit's units
+  n.tau_a_s.resize(N);
+  n.b.resize(N);
+  n.s.resize(N);
+  n.a = Eigen::MatrixXd::Zero(N, N);
+  n.tau_a_s.head(R) = m.network.tau_a_s;
+  n.b.head(R) = m.network.b;
+  n.s.head(R) = m.network.s;
+  n.a.topLeftCorner(R, R) = m.network.a;
+  MatsuokaState start;
+  start.x.resize(N);
+  start.f.resize(N);
+  start.x.head(R) = m.start.x;
+  start.f.head(R) = m.start.f;
+  m.output_map = Eigen::MatrixXd::Zero(M, N);
+  for (int k = 0; k < M; ++k) {
+    // Inactive muscles: their mean (the best constant), no neurons.
+    m.output_bias[k] = std::max(0.0, target.col(k).mean());
+    fitted.col(k).setConstant(m.output_bias[k]);
+  }
+  for (std::size_t i = 0; i < active.size(); ++i) {
+    const PatternNeurons& p = units[i];
+    const int first = R + U * static_cast<int>(i);
+    for (int u = 0; u < U; ++u) {
+      n.tau_a_s[first + u] = p.tau_a * scale;
+      n.b[first + u] = p.b[u];
+      n.s[first + u] = p.s[u];
+      n.a.row(first + u).head(R) = p.c.row(u);
+      if (U == 2) n.a(first + u, first + 1 - u) = p.mutual;
+      start.x[first + u] = p.x0[u];
+      start.f[first + u] = p.f0[u];
+      m.output_map(active[i], first + u) = p.weights[u];
+    }
+    m.output_bias[active[i]] = p.bias;
+    fitted.col(active[i]) = fits[i];
+  }
+  m.network = n;
+  m.start = start;
 }
 
 }  // namespace
@@ -239,6 +327,7 @@ CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::v
       });
     for (auto& t : pool) t.join();
   }
+  result.summary.rhythm_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
   for (int start = 0; start < o.starts; ++start)
     if (costs[start] < best_cost) best_cost = costs[start], best = starts[start], result.summary.best_start = start;
   // The model: network in seconds (period = cycle), exact map, state at the cycle's start.
@@ -257,7 +346,8 @@ CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::v
   const Eigen::MatrixXd Y = at_phases(c, static_cast<int>(target.rows()), ph);
   result.fitted = best_map(Y, target, &m.output_map, &m.output_bias);
   result.target = target;
-  m.start = c.states[static_cast<int>(ph * kFinePhases) % kFinePhases];
+  m.start = state_at_phase(c, ph);
+  if (o.pattern_units > 0) add_pattern_layer(c, ph, target, o, scale, m, result.fitted);
   m.feedback_gains = Eigen::MatrixXd::Zero(m.network.size(), 0);
   // Quality.
   auto& s = result.summary;
@@ -274,8 +364,8 @@ CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::v
 
 std::string CpgFitSummary::BriefReport() const {
   char buf[200];
-  std::snprintf(buf, sizeof buf, "CPG fit: mean R^2 %.4f over %d active muscles, best of start %d, %.2f s", mean_r_squared_active,
-                active_muscles, best_start, seconds);
+  std::snprintf(buf, sizeof buf, "CPG fit: mean R^2 %.4f over %d active muscles, best of start %d, %.2f s (rhythm %.2f s)",
+                mean_r_squared_active, active_muscles, best_start, seconds, rhythm_seconds);
   return buf;
 }
 

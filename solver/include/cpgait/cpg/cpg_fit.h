@@ -1,12 +1,17 @@
 #pragma once
 // Fitting a Matsuoka network to muscle patterns over a gait cycle, and running it.
 //
-// The network is K mutually inhibiting pairs with inhibitory couplings between pairs; each muscle's
-// excitation is a non-negative combination of the neurons' outputs plus a non-negative bias. For a
-// given network the output map is exact (non-negative least squares per muscle), so Ceres only
-// searches the network's dimensionless parameters (adaptation/rise time ratio, adaptation, mutual
-// inhibition, tonic inputs, couplings) and the pattern's phase, from several starts; the time
-// constants are then scaled so that the network's period equals the gait cycle.
+// Two layers of Matsuoka neurons. The rhythm layer is K mutually inhibiting pairs with inhibitory
+// couplings between pairs: it sets the cycle. The pattern layer gives every active muscle its own few
+// neurons (a mutually inhibiting pair by default), driven by the rhythm neurons through signed
+// couplings (a negative a_ij excites); their rectified outputs, with adaptation, shape bursts at any
+// phase and width, which the rhythm neurons' broad half-waves alone cannot. Each muscle's excitation
+// is a non-negative combination of its pattern neurons (or, without a pattern layer, of the rhythm
+// neurons) plus a non-negative bias; for given neurons that map is exact (non-negative least squares).
+// So Ceres searches only dimensionless neuron parameters: first the rhythm layer with the pattern's
+// phase (multiple starts, in parallel), then each muscle's pattern neurons against the fixed rhythm
+// (independent small problems, in parallel); the time constants are then scaled so that the
+// network's period equals the gait cycle.
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -37,11 +42,17 @@ struct CpgModel {
 };
 
 struct CpgFitOptions {
-  int pairs = 2;               // oscillator pairs (2 K neurons)
-  int starts = 8;              // optimisation starts (the first is Matsuoka's classic pair)
+  int pairs = 2;               // rhythm-layer oscillator pairs (2 K neurons)
+  // Rhythm-layer starts (the first is Matsuoka's classic pair) and Ceres iterations per start. With
+  // a pattern layer the rhythm only has to oscillate with phases the pattern neurons can use, so a
+  // short search suffices (measured on subject01: 8 starts x 100 iterations gain no R^2 over 2 x 30);
+  // without one (pattern_units = 0) use more, e.g. 8 x 100.
+  int starts = 2;
+  int max_iterations = 30;
   int phase_samples = 100;     // samples per cycle of the target patterns
-  int max_iterations = 100;    // Ceres iterations per start
   double active_threshold = 0.05;  // muscles whose peak exceeds this count in the mean R^2
+  int pattern_units = 2;       // pattern neurons per active muscle (0: muscles read the rhythm layer)
+  int pattern_starts = 4;      // optimisation starts per muscle's pattern neurons
   unsigned seed = 1;
 };
 
@@ -50,6 +61,7 @@ struct CpgFitSummary {
   double mean_r_squared_active = 0;
   int active_muscles = 0;
   double seconds = 0;
+  double rhythm_seconds = 0;   // of which: the rhythm layer's fit
   int best_start = 0;
   std::string BriefReport() const;
 };
