@@ -13,6 +13,7 @@ void add_run_tool_command(CLI::App& app);   // run-tool: dispatches on the setup
 void add_run_command(CLI::App& app);        // run: the whole pipeline on one trial
 void add_serve_command(CLI::App& app);      // serve: the REST service
 void add_video_commands(CLI::App& app);     // detect, calibrate, capture: AprilTag footage
+void add_cpg_commands(CLI::App& app);       // cpg fit, cpg run
 
 // Runners for OpenSim setups; results go to results_override when it is not empty.
 void run_ik_setup(const std::string& setup_path, const std::string& results_override, const std::string& bounds);

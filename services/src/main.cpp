@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   cpgait::services::add_run_command(app);
   cpgait::services::add_serve_command(app);
   cpgait::services::add_video_commands(app);
+  cpgait::services::add_cpg_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -157,3 +157,29 @@ TEST(Cli, DetectCalibrateAndCaptureFromTheCommandLine) {
   EXPECT_NE(b.output.find("tag_size_m"), std::string::npos) << b.output;
   fs::remove_all(dir);
 }
+
+TEST(Cli, CpgFitThenRun) {
+  const std::string dir = cpgait::refdata::temp_dir("cli_cpg");
+  // Three cycles of 1.0 s of two muscles' bursts, sampled at 100 Hz.
+  std::vector<double> time;
+  Eigen::MatrixXd v(301, 2);
+  for (int i = 0; i <= 300; ++i) {
+    const double t = i / 100.0, ph = t - std::floor(t);
+    time.push_back(t);
+    v(i, 0) = 0.5 * std::exp(-0.5 * std::pow((ph - 0.3) / 0.06, 2));
+    v(i, 1) = 0.3 + 0.3 * std::sin(2 * M_PI * ph);
+  }
+  cpgait::write_storage(cpgait::make_storage("patterns", {"a", "b"}, time, v, false), dir + "/p.sto");
+  const CliRun f = run("cpg fit --patterns " + dir + "/p.sto --cycle-starts 0 1 2 3 -o " + dir + "/cpg.json");
+  ASSERT_EQ(f.status, 0) << f.output;
+  EXPECT_NE(f.output.find("3 gait cycle(s), mean 1.000 s"), std::string::npos) << f.output;
+  EXPECT_TRUE(fs::exists(dir + "/cpg_fitted.sto"));
+  const CliRun r = run("cpg run --model " + dir + "/cpg.json --duration 2 --dt 0.002 --speed 1.25 -o " + dir + "/run");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const cpgait::Storage e = cpgait::read_storage(dir + "/run_excitations.sto");
+  EXPECT_EQ(e.num_rows(), 1000);
+  EXPECT_EQ(e.labels, (std::vector<std::string>{"time", "a", "b"}));
+  EXPECT_NE(r.output.find("cycle 0.800 s"), std::string::npos) << r.output;
+  EXPECT_EQ(run("cpg fit --patterns " + dir + "/p.sto -o " + dir + "/x.json").status, 2);  // no cycles given
+  fs::remove_all(dir);
+}

@@ -1,0 +1,148 @@
+// cpg fit / cpg run: a Matsuoka CPG fitted to a trial's muscle patterns, and run with its knobs.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "commands.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/json_input.h"
+#include "cpgait/capture/storage.h"
+#include "cpgait/capture/text_lines.h"
+#include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/model/osim_reader.h"
+#include "output_files.h"
+
+namespace cpgait::services {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<double> column_of(const Storage& s, int c) { return std::vector<double>(s.data.col(c).data(), s.data.col(c).data() + s.num_rows()); }
+
+CpgModel read_cpg_model(const std::string& path) {
+  return CpgModel::from_json(parse_json_input(text::read_file(path), path), path);
+}
+
+Storage cpg_table(const std::string& name, const std::vector<std::string>& labels, const std::vector<double>& time, const Eigen::MatrixXd& values) {
+  return make_storage(name, labels, time, values, false);
+}
+
+}  // namespace
+
+void add_cpg_commands(CLI::App& app) {
+  auto* cpg = app.add_subcommand("cpg", "Central pattern generators (Matsuoka neurons): fit one to a trial's muscle patterns, run one.");
+  cpg->require_subcommand(1);
+
+  // cpg fit
+  auto* fit = cpg->add_subcommand(
+      "fit",
+      "Fit a CPG to muscle activations or excitations (.sto: static optimization's _activation.sto, CMC's\n"
+      "_controls.sto). Gait cycles run from heel strike to heel strike: give the times (--cycle-starts, s)\n"
+      "or a GRF .mot and its vertical-force column of one foot. Writes the model JSON (cpgait.cpg/1: time\n"
+      "constants in s, the output map, knobs, feedback gains) and <output>_target.sto / <output>_fitted.sto\n"
+      "(the cycle-averaged patterns and the CPG's, over one cycle); prints R^2 per muscle.");
+  struct FitArgs {
+    std::string patterns, grf, force_column = "ground_force_vy", model, out;
+    std::vector<double> starts;
+    CpgFitOptions o;
+    double threshold_N = 20;
+  };
+  auto f = std::make_shared<FitArgs>();
+  fit->add_option("--patterns", f->patterns, "activations or excitations (.sto), one column per muscle")->required()->check(CLI::ExistingFile);
+  fit->add_option("--cycle-starts", f->starts, "heel-strike times (s), at least two");
+  fit->add_option("--grf", f->grf, "ground reaction forces (.mot) to find heel strikes in")->check(CLI::ExistingFile);
+  fit->add_option("--force-column", f->force_column, "the foot's vertical force column (N)")->capture_default_str();
+  fit->add_option("--contact-threshold", f->threshold_N, "force (N) whose upward crossing is a heel strike")->capture_default_str();
+  fit->add_option("--model", f->model, "OpenSim model: only its muscles' columns are fitted (default: every column)")->check(CLI::ExistingFile);
+  fit->add_option("--pairs", f->o.pairs, "rhythm-layer oscillator pairs")->capture_default_str();
+  fit->add_option("--pattern-units", f->o.pattern_units, "pattern neurons per active muscle (0: muscles read the rhythm layer)")
+      ->check(CLI::Range(0, 2))->capture_default_str();
+  fit->add_option("--starts", f->o.starts, "rhythm-layer optimisation starts")->capture_default_str();
+  fit->add_option("-o,--output", f->out, "model JSON to write")->required();
+  fit->callback([f] {
+    const Storage s = read_storage(f->patterns);
+    std::vector<std::string> names;
+    std::vector<int> cols;
+    std::vector<std::string> muscles;
+    if (!f->model.empty())
+      for (const auto& m : read_osim(f->model).model.muscles) muscles.push_back(m.name);
+    for (int c = 1; c < s.num_columns(); ++c)
+      if (muscles.empty() || std::find(muscles.begin(), muscles.end(), s.labels[static_cast<std::size_t>(c)]) != muscles.end())
+        names.push_back(s.labels[static_cast<std::size_t>(c)]), cols.push_back(c);
+    if (cols.empty()) throw InputError(f->patterns, 0, "labels", "no muscle columns to fit");
+    std::vector<double> starts = f->starts;
+    if (starts.empty()) {
+      if (f->grf.empty()) throw InputError("cpgait cpg fit", 0, "cycle_starts", "give --cycle-starts or --grf to find the gait cycles");
+      const Storage g = read_storage(f->grf);
+      const int c = g.column(f->force_column);
+      if (c < 0) throw InputError(f->grf, 0, f->force_column, "no such column in the GRF file");
+      starts = contact_onsets(g.time(), g.data.col(c), f->threshold_N);
+    }
+    Eigen::MatrixXd patterns(s.num_rows(), static_cast<Eigen::Index>(cols.size()));
+    for (std::size_t k = 0; k < cols.size(); ++k) patterns.col(static_cast<Eigen::Index>(k)) = s.data.col(cols[k]);
+    const std::vector<double> time = column_of(s, 0);
+    const Eigen::MatrixXd cycle = cycle_average(time, patterns, starts, f->o.phase_samples);
+    double cycle_s = 0;
+    int cycles = 0;
+    for (std::size_t k = 0; k + 1 < starts.size(); ++k)
+      if (starts[k] >= time.front() - 1e-9 && starts[k + 1] <= time.back() + 1e-9) cycle_s += starts[k + 1] - starts[k], ++cycles;
+    cycle_s /= cycles;
+    const CpgFitResult r = fit_cpg(cycle, cycle_s, names, f->o);
+    write_text_atomic(f->out, r.model.to_json().dump(2) + "\n");
+    const std::string stem = (fs::path(f->out).parent_path() / fs::path(f->out).stem()).string();
+    std::vector<double> phase_time;
+    for (int k = 0; k < cycle.rows(); ++k) phase_time.push_back(cycle_s * k / static_cast<double>(cycle.rows()));
+    write_storage_atomic(cpg_table("cycle-averaged target patterns", names, phase_time, r.target), stem + "_target.sto");
+    write_storage_atomic(cpg_table("CPG-fitted patterns", names, phase_time, r.fitted), stem + "_fitted.sto");
+    std::printf("%d gait cycle(s), mean %.3f s; %s\n", cycles, cycle_s, r.summary.BriefReport().c_str());
+    for (std::size_t k = 0; k < names.size(); ++k)
+      std::printf("  %-16s peak %.3f  R^2 %.3f\n", names[k].c_str(), r.target.col(static_cast<Eigen::Index>(k)).maxCoeff(),
+                  r.summary.r_squared[static_cast<Eigen::Index>(k)]);
+    std::printf("wrote %s, %s_target.sto, %s_fitted.sto\n", f->out.c_str(), stem.c_str(), stem.c_str());
+  });
+
+  // cpg run
+  auto* run = cpg->add_subcommand(
+      "run",
+      "Run a fitted CPG (model JSON from `cpg fit`): writes <output>_neurons.sto (every neuron's output y)\n"
+      "and <output>_excitations.sto (each muscle's excitation, 0-1), sampled every --dt seconds. Knobs:\n"
+      "--speed scales the cycle frequency, --amplitude the excitations; --to B.json with --transition t0 t1\n"
+      "blends smoothly into another CPG (same structure), e.g. walk -> faster walk, walk -> stand.");
+  struct RunArgs {
+    std::string model, to, out;
+    double duration_s = 5, dt_s = 0.001;
+    std::optional<double> speed, amplitude;
+    std::vector<double> transition;
+  };
+  auto a = std::make_shared<RunArgs>();
+  run->add_option("--model", a->model, "CPG model JSON")->required()->check(CLI::ExistingFile);
+  run->add_option("--duration", a->duration_s, "seconds to run")->check(CLI::Range(1e-3, 3600.0))->capture_default_str();
+  run->add_option("--dt", a->dt_s, "step and sampling interval, s")->check(CLI::Range(1e-5, 0.05))->capture_default_str();
+  run->add_option("--speed", a->speed, "cycle frequency factor (1: as fitted)")->check(CLI::Range(0.1, 10.0));
+  run->add_option("--amplitude", a->amplitude, "excitation factor (0: silent)")->check(CLI::Range(0.0, 10.0));
+  run->add_option("--to", a->to, "second CPG model to blend into")->check(CLI::ExistingFile);
+  run->add_option("--transition", a->transition, "blend window t0 t1 (s) for --to")->expected(2);
+  run->add_option("-o,--output", a->out, "output prefix")->required();
+  run->callback([a] {
+    CpgModel m = read_cpg_model(a->model);
+    if (a->speed) m.speed = *a->speed;
+    if (a->amplitude) m.amplitude = *a->amplitude;
+    CpgRun r;
+    if (!a->to.empty()) {
+      if (a->transition.size() != 2 || !(a->transition[0] < a->transition[1]))
+        throw InputError("cpgait cpg run", 0, "transition", "--to needs --transition t0 t1 with t0 < t1");
+      r = run_cpg_transition(m, read_cpg_model(a->to), a->transition[0], a->transition[1], a->duration_s, a->dt_s);
+    } else {
+      r = run_cpg(m, a->duration_s, a->dt_s);
+    }
+    std::vector<std::string> neurons;
+    for (int i = 0; i < m.network.size(); ++i) neurons.push_back("y" + std::to_string(i));
+    if (!fs::path(a->out).parent_path().empty()) ensure_directory(fs::path(a->out).parent_path().string());
+    write_storage_atomic(cpg_table("CPG neuron outputs", neurons, r.time_s, r.neurons), a->out + "_neurons.sto");
+    write_storage_atomic(cpg_table("CPG muscle excitations", m.muscle_names, r.time_s, r.excitations), a->out + "_excitations.sto");
+    std::printf("ran %.3f s (%zu steps, cycle %.3f s at speed %.2f); wrote %s_neurons.sto and %s_excitations.sto\n", a->duration_s,
+                r.time_s.size(), m.cycle_s / m.speed, m.speed, a->out.c_str(), a->out.c_str());
+  });
+}
+
+}  // namespace cpgait::services
