@@ -6,6 +6,8 @@
 #include "cpgait/activation/static_optimization.h"
 #include "cpgait/capture/external_loads.h"
 #include "cpgait/capture/input_error.h"
+#include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/kinematics/gait_events.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/model/osim_reader.h"
 #include "output_files.h"
@@ -14,7 +16,7 @@ namespace cpgait::services {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const std::vector<std::string> kStages = {"ik", "id", "so"};
+const std::vector<std::string> kStages = {"ik", "id", "so", "cpg"};
 
 namespace {
 
@@ -110,7 +112,7 @@ PipelineOptions PipelineOptions::parse(const std::string& text, const std::strin
 
 PipelineOptions PipelineOptions::from_json(const json& j, const std::string& source) {
   PipelineOptions o;
-  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "capture", "inputs"}, source, "");
+  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "cpg", "capture", "inputs"}, source, "");
   if (j.contains("model")) {
     if (!j["model"].is_string()) bad(source, "model", "expected a model id string");
     o.model_id = j["model"].get<std::string>();
@@ -120,7 +122,7 @@ PipelineOptions PipelineOptions::from_json(const json& j, const std::string& sou
     o.stages.clear();
     for (const auto& s : j["stages"]) {
       if (!s.is_string() || std::find(kStages.begin(), kStages.end(), s.get<std::string>()) == kStages.end())
-        bad(source, "stages", "unknown stage " + s.dump() + " (stages: ik, id, so)");
+        bad(source, "stages", "unknown stage " + s.dump() + " (stages: ik, id, so, cpg)");
       o.stages.push_back(s.get<std::string>());
     }
     // A stage needs the ones before it.
@@ -164,6 +166,18 @@ PipelineOptions PipelineOptions::from_json(const json& j, const std::string& sou
     }
     o.so_cutoff_hz = number(so, "lowpass_cutoff_hz", o.so_cutoff_hz, source, "so.lowpass_cutoff_hz");
   }
+  if (j.contains("cpg")) {
+    const auto& c = j["cpg"];
+    only_keys(c, {"pairs", "pattern_units", "foot"}, source, "cpg.");
+    o.cpg_pairs = static_cast<int>(number(c, "pairs", o.cpg_pairs, source, "cpg.pairs"));
+    if (o.cpg_pairs < 1 || o.cpg_pairs > 6) bad(source, "cpg.pairs", "expected 1 to 6 oscillator pairs");
+    o.cpg_pattern_units = static_cast<int>(number(c, "pattern_units", o.cpg_pattern_units, source, "cpg.pattern_units"));
+    if (o.cpg_pattern_units < 0 || o.cpg_pattern_units > 2) bad(source, "cpg.pattern_units", "expected 0, 1 or 2");
+    if (c.contains("foot")) {
+      if (!c["foot"].is_string()) bad(source, "cpg.foot", "expected a body name");
+      o.cpg_foot = c["foot"].get<std::string>();
+    }
+  }
   if (j.contains("capture")) {
     const auto& c = j["capture"];
     only_keys(c, {"max_reprojection_px", "gap_fill_s", "single_view", "sync", "decimate"}, source, "capture.");
@@ -201,6 +215,8 @@ json PipelineOptions::to_json() const {
   if (ik_tasks) j["ik"]["tasks"] = *ik_tasks;
   j["id"]["lowpass_cutoff_hz"] = id_cutoff_hz;
   j["so"] = {{"activation_exponent", so_exponent}, {"use_muscle_physiology", so_physiology}, {"lowpass_cutoff_hz", so_cutoff_hz}};
+  j["cpg"] = {{"pairs", cpg_pairs}, {"pattern_units", cpg_pattern_units}};
+  if (!cpg_foot.empty()) j["cpg"]["foot"] = cpg_foot;
   j["capture"] = {{"max_reprojection_px", capture.triangulation.max_reprojection_error_px},
                   {"gap_fill_s", capture.max_gap_fill_s},
                   {"single_view", capture.single_view_pose},
@@ -304,6 +320,9 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
 
   // IK
   Storage coordinates;
+  Eigen::MatrixXd ik_q;
+  std::vector<double> ik_time;
+  StaticOptimizationResult so_result;
   if (options.wants("ik")) {
     StageTimer timer(observer, "ik");
     StageProgress progress(observer, "ik");
@@ -312,6 +331,8 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     io.time_range_s = options.time_range_s;
     const IkTaskSet tasks = options.ik_tasks ? parse_ik_tasks_json(options.ik_tasks->dump(), "options (ik.tasks)") : IkTaskSet{};
     const IkResult r = inverse_kinematics(model, trial, tasks, io, nullptr, &progress);
+    ik_q = r.q;
+    ik_time = r.time_s;
     coordinates = ik_coordinates_table(model, r);
     write(coordinates, in.name + "_ik.mot");
     write(ik_marker_errors_table(r), in.name + "_ik_marker_errors.sto");
@@ -349,7 +370,8 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     o.use_muscle_physiology = options.so_physiology;
     o.lowpass_cutoff_hz = options.so_cutoff_hz;
     const ResolvedActuators actuators(model, default_actuators(model));
-    const StaticOptimizationResult r = static_optimization(model, coordinates, loads.get(), actuators, o, &progress);
+    so_result = static_optimization(model, coordinates, loads.get(), actuators, o, &progress);
+    const StaticOptimizationResult& r = so_result;
     write(static_optimization_activation_table(r), in.name + "_StaticOptimization_activation.sto");
     write(static_optimization_force_table(r), in.name + "_StaticOptimization_force.sto");
     const json summary = {{"frames", r.summary.frames},
@@ -359,6 +381,67 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
                           {"warnings", r.summary.warnings}};
     result.summary["so"] = summary;
     if (observer) observer->stage_finished("so", timer.seconds(), summary);
+  }
+  // CPG: fitted to the SO activations over the gait cycles of one foot.
+  if (options.wants("cpg")) {
+    StageTimer timer(observer, "cpg");
+    json summary;
+    std::vector<double> strikes;
+    std::string source;
+    if (!in.grf.empty()) {
+      const Storage grf = parse_storage(in.grf, in.grf_name);
+      for (int c = 1; c < grf.num_columns() && strikes.empty(); ++c)
+        if (grf.labels[static_cast<std::size_t>(c)] == "ground_force_vy") {
+          strikes = contact_onsets(grf.time(), grf.data.col(c));
+          source = "GRF ground_force_vy (20 N threshold)";
+        }
+    }
+    if (strikes.size() < 2) {
+      const std::string foot = !options.cpg_foot.empty() ? options.cpg_foot : model.body_index("calcn_r") >= 0 ? "calcn_r" : "foot_r";
+      strikes = heel_strikes_zeni(model, ik_time, ik_q, foot);
+      source = "kinematics (Zeni 2008), " + foot;
+    }
+    const int nm = static_cast<int>(model.muscles.size());
+    std::vector<std::string> names(so_result.names.begin(), so_result.names.begin() + nm);
+    double cycle_s = 0;
+    int cycles = 0;
+    for (std::size_t k = 0; k + 1 < strikes.size(); ++k)
+      if (strikes[k] >= so_result.time_s.front() - 1e-9 && strikes[k + 1] <= so_result.time_s.back() + 1e-9)
+        cycle_s += strikes[k + 1] - strikes[k], ++cycles;
+    summary = {{"heel_strikes_s", strikes}, {"heel_strike_source", source}, {"cycles", cycles}};
+    if (cycles == 0 || nm == 0) {
+      // Not an error of the trial: IK, ID and SO stand; the stage says why it fitted nothing.
+      summary["not_fitted"] = nm == 0 ? "the model has no muscles" : "no full gait cycle (two heel strikes of one foot) inside the trial";
+    } else {
+      cycle_s /= cycles;
+      CpgFitOptions fo;
+      fo.pairs = options.cpg_pairs;
+      fo.pattern_units = options.cpg_pattern_units;
+      const Eigen::MatrixXd cycle = cycle_average(so_result.time_s, so_result.controls.leftCols(nm), strikes, fo.phase_samples);
+      const CpgFitResult fit = fit_cpg(cycle, cycle_s, names, fo);
+      write_text_atomic((fs::path(out_dir) / (in.name + "_cpg.json")).string(), fit.model.to_json().dump(2) + "\n");
+      result.files.push_back(in.name + "_cpg.json");
+      std::vector<double> phase_time;
+      for (int k = 0; k < cycle.rows(); ++k) phase_time.push_back(cycle_s * k / static_cast<double>(cycle.rows()));
+      write(make_storage("cycle-averaged SO activations", names, phase_time, fit.target, false), in.name + "_cpg_target.sto");
+      write(make_storage("CPG excitations, fitted", names, phase_time, fit.fitted, false), in.name + "_cpg_fitted.sto");
+      const CpgRun run = run_cpg(fit.model, cycle_s, cycle_s / static_cast<double>(cycle.rows()));
+      std::vector<std::string> neurons;
+      const int rhythm = 2 * fo.pairs;
+      for (int i = 0; i < fit.model.network.size(); ++i)
+        neurons.push_back(i < rhythm ? "rhythm" + std::to_string(i) : "pattern" + std::to_string(i - rhythm));
+      std::vector<double> run_time(run.time_s.begin(), run.time_s.end());
+      write(make_storage("CPG neuron outputs over one cycle", neurons, run_time, run.neurons, false), in.name + "_cpg_neurons.sto");
+      json r2 = json::object();
+      for (std::size_t k = 0; k < names.size(); ++k) r2[names[k]] = fit.summary.r_squared[static_cast<Eigen::Index>(k)];
+      summary["cycle_s"] = cycle_s;
+      summary["mean_r_squared_active"] = fit.summary.mean_r_squared_active;
+      summary["active_muscles"] = fit.summary.active_muscles;
+      summary["neurons"] = fit.model.network.size();
+      summary["r_squared"] = r2;
+    }
+    result.summary["cpg"] = summary;
+    if (observer) observer->stage_finished("cpg", timer.seconds(), summary);
   }
   write_text_atomic((fs::path(out_dir) / "job.json").string(), options.to_json().dump(2) + "\n");
   result.files.push_back("job.json");

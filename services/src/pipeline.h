@@ -22,13 +22,16 @@ namespace cpgait::services {
 //           "tasks": {IK task JSON, see capture/ik_setup.h}}   [every marker, weight 1]
 //    "id": {"lowpass_cutoff_hz": 6}   [6; negative: no filtering]
 //    "so": {"activation_exponent": 2, "use_muscle_physiology": true, "lowpass_cutoff_hz": 6}
+//    "cpg": {"pairs": 2, "pattern_units": 2, "foot": "calcn_r"}   a CPG fitted to the SO activations
+//                                     over the gait cycles of one foot: heel strikes from the GRF's first
+//                                     vertical force (ground_force_vy), else from kinematics (Zeni 2008)
 //    "capture": {"max_reprojection_px": 2, "gap_fill_s": 0.05, "single_view": true,
 //                "sync": "index"|"time", "decimate": 3}    only with AprilTag footage (a "capture"
 //                                     stage then runs first and its markers feed IK)
 //    "inputs": {"model","markers","grf","loads": paths}   cpgait run only: what it ran on}
 struct PipelineOptions {
   std::string model_id;
-  std::vector<std::string> stages = {"ik", "id", "so"};
+  std::vector<std::string> stages = {"ik", "id", "so", "cpg"};
   std::optional<std::pair<double, double>> time_range_s;
   IkOptions::Bounds ik_bounds = IkOptions::Bounds::kClampedOnly;
   std::optional<nlohmann::json> ik_tasks;
@@ -37,6 +40,9 @@ struct PipelineOptions {
   bool so_physiology = true;
   double so_cutoff_hz = 6.0;
   video::CaptureOptions capture;
+  int cpg_pairs = 2;
+  int cpg_pattern_units = 2;
+  std::string cpg_foot;  // empty: calcn_r, else foot_r
   nlohmann::json inputs = nlohmann::json::object();
 
   // Throws InputError naming the JSON field ("ik.bounds", ...) for anything invalid or unknown.

@@ -63,7 +63,9 @@ json table_json(const std::string& file, const Storage& s) {
 const std::map<std::string, std::vector<std::string>> kStageFiles = {
     {"ik", {"_ik.mot", "_ik_marker_errors.sto"}},
     {"id", {"_id.sto"}},
-    {"so", {"_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"}}};
+    {"so", {"_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"}},
+    {"cpg", {"_cpg_target.sto", "_cpg_fitted.sto", "_cpg_neurons.sto"}},
+    {"capture", {"_capture_quality.sto"}}};
 
 class Api {
  public:
@@ -402,7 +404,7 @@ class Api {
     auto t = find(id, res);
     if (!t) return;
     const auto it = kStageFiles.find(stage);
-    if (it == kStageFiles.end()) return send_error(res, 404, "unknown_stage", "stages are ik, id and so", "stage");
+    if (it == kStageFiles.end()) return send_error(res, 404, "unknown_stage", "stages are capture, ik, id, so and cpg", "stage");
     const auto s = std::find_if(t->stages.begin(), t->stages.end(), [&](const StageRecord& r) { return r.name == stage; });
     if (s == t->stages.end() || s->state != "done")
       return send_error(res, 409, "not_ready", "stage '" + stage + "' is " + (s == t->stages.end() ? "absent" : s->state), "stage");

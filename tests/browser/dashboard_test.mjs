@@ -136,6 +136,13 @@ try {
     assert.equal(counts.activations, 1 + 4);   // time + the four most active muscles
     assert.equal(counts.moments, 1 + 3);
     assert.equal(counts.heatRows, haveShared ? 92 : 6);
+    if (haveShared) {
+      // subject01 has a full right gait cycle: the CPG panel plots four muscles, SO and CPG each.
+      const cpg = await page.evaluate(() => ({ fit: window.__cpgait.plots.cpg && window.__cpgait.plots.cpg.series.length,
+        neurons: window.__cpgait.plots.cpgNeurons && window.__cpgait.plots.cpgNeurons.series.length }));
+      assert.equal(cpg.fit, 1 + 2 * 4);
+      assert.equal(cpg.neurons, 1 + 4);  // two rhythm pairs
+    }
   });
 
   await check('scrubbing changes the pose and moves the playhead', async () => {

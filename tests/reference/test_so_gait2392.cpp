@@ -6,6 +6,7 @@
 
 #include "cpgait/activation/static_optimization.h"
 #include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
 #include "test_support.h"
 
@@ -158,4 +159,35 @@ TEST(CpgGait2392, FitsSubject01Activations) {
   std::printf("[ info ] running the fitted CPG: period %.5f s (gait cycle %.5f s)\n", oscillation_period(run.neurons.col(0), dt, 0), cycle_s);
   std::printf("[ info ] running the fitted CPG: largest difference from the fitted patterns %.4f (4th cycle)\n", largest);
   EXPECT_LT(largest, 0.02);
+}
+
+// Heel strikes from kinematics alone (Zeni 2008) against the force plate's onsets (20 N) on subject01.
+TEST(GaitEventsGait2392, ZeniHeelStrikesMatchForcePlateOnsets) {
+  const std::string pl = refdata::gait2392("pipeline/");
+  const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
+  for (const auto& p : {pl + "subject01_walk1_grf.mot", ik}) REQUIRE_REFERENCE(p);
+  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
+  const Storage q = read_storage(ik);
+  Eigen::MatrixXd qr(q.num_rows(), m.num_coordinates());
+  for (int c = 0; c < m.num_coordinates(); ++c) {
+    const int col = q.column(m.coordinates[static_cast<std::size_t>(c)].name);
+    ASSERT_GE(col, 0);
+    qr.col(c) = q.data.col(col) * (m.coordinates[static_cast<std::size_t>(c)].is_angle() ? M_PI / 180 : 1.0);
+  }
+  const std::vector<double> time(q.time().data(), q.time().data() + q.num_rows());
+  const Storage grf = read_storage(pl + "subject01_walk1_grf.mot");
+  for (const auto& [foot, column] : {std::pair<std::string, std::string>{"calcn_r", "ground_force_vy"}, {"calcn_l", "1_ground_force_vy"}}) {
+    const std::vector<double> plate = contact_onsets(grf.time(), grf.data.col(grf.column(column)));
+    const std::vector<double> zeni = heel_strikes_zeni(m, time, qr, foot);
+    int matched = 0;
+    for (double t : plate) {
+      if (t < time.front() + 0.05 || t > time.back() - 0.05) continue;  // a peak needs frames on both sides
+      double nearest = 1e9;
+      for (double z : zeni) nearest = std::min(nearest, std::abs(z - t));
+      std::printf("[ info ] %s heel strike: force plate %.3f s, kinematics within %.3f s\n", foot.c_str(), t, nearest);
+      EXPECT_LT(nearest, 0.04) << foot << " at " << t;
+      ++matched;
+    }
+    EXPECT_GE(matched, 1) << foot;
+  }
 }

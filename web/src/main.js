@@ -1,7 +1,7 @@
 // cpgait dashboard: trial list with live progress, upload form, trial review.
 import './style.css';
 import { Viewer } from './viewer.js';
-import { linePlot, heatMap } from './plots.js';
+import { linePlot, heatMap, COLORS } from './plots.js';
 
 const app = document.getElementById('app');
 const state = { cleanups: [] };
@@ -121,7 +121,7 @@ async function uploadView() {
     row('Loads (.xml)', h('input', { type: 'file', id: 'loads', name: 'loads', accept: '.xml' }), 'loads'),
     row('Model', h('select', { id: 'model', name: 'model' }, models.map((m) => h('option', { value: m.id }, `${m.name} (${m.summary.coordinates} coordinates, ${m.summary.muscles} muscles)`))), 'model'),
     row('Time range (s)', h('span', {}, h('input', { type: 'number', step: 'any', id: 't0', placeholder: 'start' }), ' – ', h('input', { type: 'number', step: 'any', id: 't1', placeholder: 'end' })), 'time_range'),
-    row('Stages', h('span', {}, ['ik', 'id', 'so'].map((s) => h('label', {}, h('input', { type: 'checkbox', name: 'stage', value: s, checked: true }), ` ${s.toUpperCase()} `))), 'stages'),
+    row('Stages', h('span', {}, ['ik', 'id', 'so', 'cpg'].map((s) => h('label', {}, h('input', { type: 'checkbox', name: 'stage', value: s, checked: true }), ` ${s.toUpperCase()} `))), 'stages'),
     h('div', { class: 'form-error', id: 'form-error' }),
     h('button', { type: 'submit' }, 'Upload and run'));
   const modelUpload = h('form', { id: 'model-upload' },
@@ -196,9 +196,12 @@ async function trialView(id) {
   }
   if (trial.status !== 'done') return;
   const done = (s) => (trial.stages.find((x) => x.name === s) || {}).state === 'done';
-  const [kin, ik, id_, so] = await Promise.all([
+  const cpgSummary = (trial.stages.find((x) => x.name === 'cpg') || {}).summary || {};
+  const cpgFitted = done('cpg') && cpgSummary.mean_r_squared_active !== undefined;
+  const [kin, ik, id_, so, cpg] = await Promise.all([
     api(`/trials/${id}/kinematics`), api(`/trials/${id}/results/ik`),
-    done('id') ? api(`/trials/${id}/results/id`) : null, done('so') ? api(`/trials/${id}/results/so`) : null]);
+    done('id') ? api(`/trials/${id}/results/id`) : null, done('so') ? api(`/trials/${id}/results/so`) : null,
+    cpgFitted ? api(`/trials/${id}/results/cpg`) : null]);
   const coords = ik.tables[0], errors = ik.tables[1];
   const time = coords.columns[0];
   const n = kin.frames.length;
@@ -290,7 +293,38 @@ async function trialView(id) {
     muscleSel.addEventListener('change', drawCurves);
     drawCurves();
   }
-  card('CPG outputs vs fitted excitations', h('p', { class: 'muted' }, 'Not computed for this trial: the CPG stage is not available yet.'));
+  if (cpg) {
+    // Over one gait cycle: each chosen muscle's cycle-averaged activation (dashed) and the CPG's
+    // excitation; below, the rhythm neurons. The playhead shows where the trial is in its cycle.
+    const [target, fitted, neurons] = cpg.tables;
+    const cycleT = target.columns[0];
+    const cycleS = cpgSummary.cycle_s, hs0 = (cpgSummary.heel_strikes_s || [0])[0];
+    const inCycle = () => { const t = time[frame] - hs0; return ((t % cycleS) + cycleS) % cycleS; };
+    const muscles = target.labels.slice(1);
+    const peak = muscles.map((m) => [Math.max(...column(target, m)), m]).sort((a, b) => b[0] - a[0]);
+    const sel = h('select', { multiple: true, id: 'cpg-muscle-select' }, muscles.map((m) => h('option', { value: m, selected: peak.slice(0, 4).some((p) => p[1] === m) }, m)));
+    const box = h('div', { id: 'plot-cpg' }), nbox = h('div', { id: 'plot-cpg-neurons' });
+    const r2 = cpgSummary.r_squared || {};
+    card('CPG outputs vs fitted excitations',
+      h('div', { class: 'muted' }, `${cpgSummary.neurons} Matsuoka neurons; mean R² ${cpgSummary.mean_r_squared_active.toFixed(3)} over ${cpgSummary.active_muscles} active muscles; cycle ${cycleS.toFixed(3)} s from ${cpgSummary.heel_strike_source}`),
+      h('div', { class: 'controls' }, sel), box, nbox);
+    const draw = () => {
+      box.replaceChildren();
+      const chosen = [...sel.selectedOptions].map((o) => o.value);
+      const series = [];
+      chosen.forEach((m, i) => {
+        series.push({ label: `${m} (SO, cycle mean)`, values: column(target, m), dash: [4, 3], color: COLORS[i % COLORS.length] });
+        series.push({ label: `${m} CPG (R² ${(r2[m] ?? 0).toFixed(2)})`, values: column(fitted, m), color: COLORS[i % COLORS.length] });
+      });
+      window.__cpgait.plots.cpg = linePlot(box, cycleT, series, 'activation / excitation (0–1), time in cycle (s)', inCycle);
+    };
+    sel.addEventListener('change', draw);
+    draw();
+    const rhythm = neurons.labels.slice(1).filter((l) => l.startsWith('rhythm'));
+    window.__cpgait.plots.cpgNeurons = linePlot(nbox, neurons.columns[0], rhythm.map((l) => ({ label: l, values: column(neurons, l) })), 'rhythm neuron output y', inCycle);
+  } else {
+    card('CPG outputs vs fitted excitations', h('p', { class: 'muted' }, cpgSummary.not_fitted ? `Not fitted: ${cpgSummary.not_fitted}.` : 'Not computed for this trial (the CPG stage was not run).'));
+  }
   card('Reproduced gait vs measured', h('p', { class: 'muted' }, 'Not computed for this trial: the reproduced-gait stage is not available yet.'));
   app.append(h('div', { class: 'card files' }, h('h2', {}, 'Result files'), (trial.files || []).map((f) => h('a', { href: `/api/v1/trials/${id}/files/${f}`, download: f }, f))));
 
