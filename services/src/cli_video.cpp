@@ -8,6 +8,8 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/video/calibrate_cameras.h"
 #include "cpgait/video/capture_markers.h"
+#include "cpgait/video/register_tags.h"
+#include "cpgait/model/osim_reader.h"
 #include "output_files.h"
 
 namespace cpgait::services {
@@ -105,6 +107,31 @@ void add_video_commands(CLI::App& app) {
     const video::CalibrationResult r = video::calibrate_cameras(board, footage, names, c->o);
     write_text_atomic(c->out, video::format_calibration_json(r.rig));
     std::printf("%s\nwrote %s\n", r.summary.BriefReport().c_str(), c->out.c_str());
+  });
+
+  // register-tags
+  auto* reg = app.add_subcommand("register-tags",
+                                 "Register a tag set on a static trial (the subject standing still), as OpenSim's MarkerPlacer:\n"
+                                 "IK with the approximate tag poses, then each seen tag's pose on its body re-estimated from\n"
+                                 "its triangulated corners. Writes the refined tag set JSON.");
+  struct RegArgs {
+    std::vector<std::string> videos;
+    std::string calibration, tags, model, out;
+  };
+  auto g = std::make_shared<RegArgs>();
+  reg->add_option("--videos", g->videos, "the static trial: one video per camera")->required();
+  reg->add_option("--calibration", g->calibration, "camera calibration")->required()->check(CLI::ExistingFile);
+  reg->add_option("--tags", g->tags, "approximate tag set (.json)")->required()->check(CLI::ExistingFile);
+  reg->add_option("--model", g->model, "the subject's model (.osim)")->required()->check(CLI::ExistingFile);
+  reg->add_option("-o,--output", g->out, "registered tag set (.json) to write")->required();
+  reg->callback([g] {
+    const video::CameraRig rig = video::read_calibration(g->calibration);
+    const video::TagSet tags = video::read_tag_set(g->tags);
+    const video::CaptureResult r = video::capture_markers(rig, tags, g->videos);
+    video::TagRegistrationSummary s;
+    const video::TagSet out = video::register_tag_set(read_osim(g->model).model, tags, r.markers, {}, &s);
+    write_text_atomic(g->out, video::format_tag_set_json(out));
+    std::printf("%s\n%s\nwrote %s\n", r.summary.BriefReport().c_str(), s.BriefReport().c_str(), g->out.c_str());
   });
 
   // capture

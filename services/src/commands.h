@@ -12,7 +12,7 @@ void add_model_commands(CLI::App& app);     // model, synth
 void add_run_tool_command(CLI::App& app);   // run-tool: dispatches on the setup's tool
 void add_run_command(CLI::App& app);        // run: the whole pipeline on one trial
 void add_serve_command(CLI::App& app);      // serve: the REST service
-void add_video_commands(CLI::App& app);     // detect, calibrate, capture: AprilTag footage
+void add_video_commands(CLI::App& app);     // detect, calibrate, register-tags, capture: AprilTag footage
 void add_cpg_commands(CLI::App& app);       // cpg fit, cpg run
 
 // Runners for OpenSim setups; results go to results_override when it is not empty.
