@@ -536,3 +536,26 @@ TEST(Capture, SingleViewPoseStandsInOnlyForALostSegment) {
   o.min_single_view_edge_px = 60;
   EXPECT_EQ(video::triangulate_footage(rig, w.tags, footage, o).summary.corners_single_view, 0);
 }
+
+TEST(Capture, CentreMarkersAreTheCornersMean) {
+  fixtures::TaggedWalker w = fixtures::tagged_walker();
+  w.tags.tags[1].center_marker = "RPELVIS";
+  const video::TagSet set = video::parse_tag_set_json(video::format_tag_set_json(w.tags), "tags.json");
+  ASSERT_EQ(set.tags[1].center_marker, "RPELVIS");
+  const Model model = video::with_tag_markers(w.model, set);
+  ASSERT_GE(model.marker_index("RPELVIS"), 0);
+  const video::CameraRig rig = fixtures::lab_rig();
+  Eigen::MatrixXd q(2, w.model.num_coordinates());
+  for (int f = 0; f < 2; ++f) q.row(f) = w.model.default_coordinates().transpose();
+  std::vector<Eigen::Matrix3Xd> truth;
+  const auto footage = projected_footage(w, rig, q, truth);
+  const video::CaptureResult r = video::triangulate_footage(rig, set, footage);
+  const int m = r.markers.marker_index("RPELVIS");
+  ASSERT_EQ(m, 4 * static_cast<int>(set.tags.size()));  // after every corner
+  KinematicsWorkspace<double> ws(model);
+  const Eigen::VectorXd q0 = q.row(0).transpose();
+  forward_kinematics(model, q0.data(), ws);
+  EXPECT_LT((r.markers.position_m(0, m) - marker_position(model, model.marker_index("RPELVIS"), ws)).norm(), 1e-6);
+  EXPECT_EQ(r.views(0, m), r.views(0, 4));
+  EXPECT_NE(video::format_marker_set_xml(set).find("RPELVIS"), std::string::npos);
+}

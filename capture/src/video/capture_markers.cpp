@@ -265,9 +265,30 @@ CaptureResult triangulate_footage(const CameraRig& rig, const TagSet& tags, cons
       }
     }
   }
+  // Centre markers: the mean of the tag's four corners where all four exist (views: the fewest).
+  for (int i = 0, m = 4 * static_cast<int>(tags.tags.size()); i < num_frames; ++i, m = 4 * static_cast<int>(tags.tags.size()))
+    for (std::size_t t = 0; t < tags.tags.size(); ++t) {
+      if (tags.tags[t].center_marker.empty()) continue;
+      int views = 1 << 20;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      double rms = 0;
+      for (int k = 0; k < 4; ++k) {
+        const int c = static_cast<int>(4 * t) + k;
+        views = std::min(views, r.views(i, c));
+        sum += trial.position_m(i, c);
+        rms = std::max(rms, r.reprojection_px(i, c));
+      }
+      if (views > 0) {
+        trial.position_m(i, m) = sum / 4;
+        r.views(i, m) = views;
+        r.reprojection_px(i, m) = rms;
+      }
+      ++m;
+    }
   s.num_frames = num_frames;
   if (options.max_gap_fill_s > 0) s.corners_filled = fill_gaps(r, options.max_gap_fill_s);
-  s.corners_missing = static_cast<long>(num_frames) * M - s.corners_triangulated - s.corners_single_view - s.corners_filled;
+  s.corners_missing = 0;
+  for (int c = 0; c < 4 * static_cast<int>(tags.tags.size()); ++c) s.corners_missing += (r.views.col(c).array() == 0).count();
   if (!residuals.empty()) {
     std::nth_element(residuals.begin(), residuals.begin() + static_cast<long>(residuals.size() / 2), residuals.end());
     s.median_reprojection_px = residuals[residuals.size() / 2];

@@ -28,6 +28,8 @@ const TagMount* TagSet::find(int id) const {
 std::vector<std::string> TagSet::marker_names() const {
   std::vector<std::string> names;
   for (const TagMount& t : tags) names.insert(names.end(), t.corner_markers.begin(), t.corner_markers.end());
+  for (const TagMount& t : tags)
+    if (!t.center_marker.empty()) names.push_back(t.center_marker);
   return names;
 }
 
@@ -79,6 +81,11 @@ TagSet parse_tag_set_json(const std::string& text, const std::string& name) {
       if (names.size() != 4) throw InputError(name, 0, at + ".corner_markers", "expected 4 marker names");
       for (int k = 0; k < 4; ++k) m.corner_markers[static_cast<std::size_t>(k)] = names[static_cast<std::size_t>(k)];
     }
+    if (t.contains("center_marker")) {
+      m.center_marker = json_field<std::string>(t, "center_marker", name, at);
+      if (!markers.insert(m.center_marker).second)
+        throw InputError(name, 0, at + ".center_marker", "marker name " + m.center_marker + " used twice");
+    }
     for (const std::string& mk : m.corner_markers)
       if (!markers.insert(mk).second) throw InputError(name, 0, at + ".corner_markers", "marker name " + mk + " used twice");
     set.tags.push_back(m);
@@ -100,6 +107,7 @@ std::string format_tag_set_json(const TagSet& set) {
                     {"position_m", {m.position_in_body_m.x(), m.position_in_body_m.y(), m.position_in_body_m.z()}},
                     {"rotation_body_from_tag", r},
                     {"corner_markers", m.corner_markers}});
+    if (!m.center_marker.empty()) tags.back()["center_marker"] = m.center_marker;
   }
   return json{{"schema", "cpgait.tagset/1"}, {"family", set.family}, {"tags", tags}}.dump(2) + "\n";
 }
@@ -107,15 +115,17 @@ std::string format_tag_set_json(const TagSet& set) {
 std::string format_marker_set_xml(const TagSet& set) {
   std::string out = "<?xml version=\"1.0\" encoding=\"UTF-8\" ?>\n<OpenSimDocument Version=\"40000\">\n\t<MarkerSet name=\"tag_corners\">\n\t\t<objects>\n";
   char buf[512];
+  auto marker = [&](const std::string& name, const std::string& body, const Eigen::Vector3d& p) {
+    std::snprintf(buf, sizeof buf,
+                  "\t\t\t<Marker name=\"%s\">\n\t\t\t\t<socket_parent_frame>/bodyset/%s</socket_parent_frame>\n"
+                  "\t\t\t\t<location>%.9g %.9g %.9g</location>\n\t\t\t\t<fixed>false</fixed>\n\t\t\t</Marker>\n",
+                  name.c_str(), body.c_str(), p.x(), p.y(), p.z());
+    out += buf;
+  };
   for (const TagMount& t : set.tags)
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector3d p = t.corner_in_body_m(k);
-      std::snprintf(buf, sizeof buf,
-                    "\t\t\t<Marker name=\"%s\">\n\t\t\t\t<socket_parent_frame>/bodyset/%s</socket_parent_frame>\n"
-                    "\t\t\t\t<location>%.9g %.9g %.9g</location>\n\t\t\t\t<fixed>false</fixed>\n\t\t\t</Marker>\n",
-                    t.corner_markers[static_cast<std::size_t>(k)].c_str(), t.body.c_str(), p.x(), p.y(), p.z());
-      out += buf;
-    }
+    for (int k = 0; k < 4; ++k) marker(t.corner_markers[static_cast<std::size_t>(k)], t.body, t.corner_in_body_m(k));
+  for (const TagMount& t : set.tags)
+    if (!t.center_marker.empty()) marker(t.center_marker, t.body, t.position_in_body_m);
   out += "\t\t</objects>\n\t\t<groups />\n\t</MarkerSet>\n</OpenSimDocument>\n";
   return out;
 }
@@ -127,15 +137,16 @@ Model with_tag_markers(const Model& model, const TagSet& set, const std::string&
     const int body = model.body_index(t.body);
     if (body < 0)
       throw InputError(set_name, 0, "tags[" + std::to_string(i) + "].body", "model " + model.name + " has no body " + t.body);
-    for (int k = 0; k < 4; ++k) {
-      Marker mk{t.corner_markers[static_cast<std::size_t>(k)], body, t.corner_in_body_m(k), false};
+    auto add = [&](const Marker& mk) {
       const int existing = out.marker_index(mk.name);
       if (existing >= 0) {
         out.markers[static_cast<std::size_t>(existing)] = mk;
       } else {
         out.markers.push_back(mk);
       }
-    }
+    };
+    for (int k = 0; k < 4; ++k) add(Marker{t.corner_markers[static_cast<std::size_t>(k)], body, t.corner_in_body_m(k), false});
+    if (!t.center_marker.empty()) add(Marker{t.center_marker, body, t.position_in_body_m, false});
   }
   return out;
 }

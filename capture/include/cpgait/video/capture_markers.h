@@ -53,7 +53,7 @@ struct CaptureSummary {
   std::vector<long> detections_per_camera;
   long corners_triangulated = 0;  // from two or more views
   long corners_single_view = 0;   // from one camera's IPPE pose
-  long corners_filled = 0;       // interpolated across short gaps
+  long corners_filled = 0;       // markers interpolated across short gaps
   long corners_missing = 0;
   long views_rejected = 0;        // views dropped for reprojection error
   double median_reprojection_px = 0;

@@ -19,6 +19,7 @@ struct TagMount {
   Eigen::Vector3d position_in_body_m = Eigen::Vector3d::Zero();
   Eigen::Matrix3d rotation_body_from_tag = Eigen::Matrix3d::Identity();
   std::array<std::string, 4> corner_markers;
+  std::string center_marker;  // optional: a marker at the tag's centre (the corners' mean)
 
   Eigen::Vector3d corner_in_body_m(int k) const;
 };
@@ -28,13 +29,15 @@ struct TagSet {
   std::vector<TagMount> tags;
 
   const TagMount* find(int id) const;
-  std::vector<std::string> marker_names() const;  // 4 per tag, in tag order
+  // 4 corners per tag, in tag order, then the centre markers of the tags that name one.
+  std::vector<std::string> marker_names() const;
 };
 
 std::array<Eigen::Vector3d, 4> tag_corners_in_tag_frame(double size_m);
 
 // JSON "cpgait.tagset/1": {"family": "tag36h11", "tags": [{"id", "body", "size_m", "position_m": [3],
-// "rotation_body_from_tag": [9 row-major] or "orientation_body_xyz_deg": [3], "corner_markers": [4]}]}.
+// "rotation_body_from_tag": [9 row-major] or "orientation_body_xyz_deg": [3], "corner_markers": [4],
+// "center_marker": "name"}]}.
 TagSet read_tag_set(const std::string& path);
 TagSet parse_tag_set_json(const std::string& text, const std::string& name);
 std::string format_tag_set_json(const TagSet& set);
