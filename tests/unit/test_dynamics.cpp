@@ -4,6 +4,7 @@
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/dynamics/contact.h"
 #include "cpgait/dynamics/forward_dynamics.h"
 #include <Eigen/Eigenvalues>
 #include "cpgait/dynamics/inverse_dynamics.h"
@@ -305,4 +306,71 @@ TEST(ForwardDynamics, PassiveModelConservesEnergy) {
   // And it really moved: half a second of free fall turns about m g^2 t^2 / 2 of potential energy
   // into kinetic energy.
   EXPECT_GT(0.5 * qd.dot(ws.M * qd) - 0.5 * qd0.dot(M0 * qd0), 0.5 * m.total_mass_kg() * 9.8 * 9.8 * 0.25 * 0.5);
+}
+
+// Foot-ground contact (Hunt-Crossley spheres): static balance, energy in a drop, friction, JSON.
+TEST(Contact, HuntCrossleySphereBalancesDissipatesAndRubs) {
+  ContactSet set;
+  ContactSphere s;
+  const double weight = 700.0;
+  // Resting: the penetration where k d^1.5 = weight carries the weight.
+  const double d = std::pow(weight / s.stiffness, 2.0 / 3.0);
+  const Eigen::Vector3d f = sphere_contact_force(s, set, Eigen::Vector3d(0, s.radius_m - d, 0), Eigen::Vector3d::Zero());
+  EXPECT_NEAR(f.y(), weight, 1e-3 * weight);
+  EXPECT_NEAR(f.x(), 0.0, 1e-6);
+  // Away from the ground: (smoothly) nothing.
+  EXPECT_LT(sphere_contact_force(s, set, Eigen::Vector3d(0, s.radius_m + 0.01, 0), Eigen::Vector3d(0, -1, 0)).norm(), 1e-6);
+  // A 70 kg point dropped from 5 cm: without dissipation it bounces back to its height, with it lower.
+  auto rebound = [&](double c) {
+    ContactSphere b = s;
+    b.dissipation = c;
+    double y = s.radius_m + 0.05, v = 0, top = -1;
+    bool touched = false;
+    for (int i = 0; i < 400000; ++i) {  // 2 s at 5 us, semi-implicit Euler
+      const double fy = sphere_contact_force(b, set, Eigen::Vector3d(0, y, 0), Eigen::Vector3d(0, v, 0)).y();
+      v += (fy / 70.0 - 9.81) * 5e-6;
+      y += v * 5e-6;
+      if (y < s.radius_m) touched = true;
+      if (touched && y > s.radius_m && v < 0 && top < 0) top = y - s.radius_m;  // first apex after the bounce
+    }
+    return top;
+  };
+  const double elastic = rebound(0.0), damped = rebound(0.5), foot = rebound(s.dissipation);
+  EXPECT_NEAR(elastic, 0.05, 0.002);
+  EXPECT_LT(damped, 0.8 * elastic);
+  EXPECT_GT(damped, 0.0);
+  EXPECT_LT(foot, 0.0);  // the default (2 s/m) does not bounce a foot at all
+  // Sliding at 1 m/s along x under 700 N: friction opposes it, about mu_d + viscous times the load.
+  const Eigen::Vector3d slide = sphere_contact_force(s, set, Eigen::Vector3d(0, s.radius_m - d, 0), Eigen::Vector3d(1, 0, 0));
+  EXPECT_LT(slide.x(), 0.0);
+  EXPECT_NEAR(-slide.x() / slide.y(), s.dynamic_friction + s.viscous_friction * 1.0, 0.05);
+  EXPECT_NEAR(slide.z(), 0.0, 1e-9);
+}
+
+TEST(Contact, JsonSideFileAndDefaultFeet) {
+  const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  const ContactSet def = default_foot_contacts(m);
+  EXPECT_EQ(def.spheres.size(), 4u);
+  const ContactSet set = parse_contact_set_json(
+      R"({"ground_height_m": 0.01, "defaults": {"stiffness": 2e6}, "spheres": [
+           {"name": "heel", "body": "foot_r", "location_m": [0, -0.04, 0], "radius_m": 0.03},
+           {"name": "toe", "body": "foot_r", "location_m": [0.16, -0.04, 0], "dissipation": 1.0}]})",
+      "feet.json", m);
+  ASSERT_EQ(set.spheres.size(), 2u);
+  EXPECT_DOUBLE_EQ(set.ground_height_m, 0.01);
+  EXPECT_DOUBLE_EQ(set.spheres[0].stiffness, 2e6);
+  EXPECT_DOUBLE_EQ(set.spheres[1].dissipation, 1.0);
+  EXPECT_EQ(set.spheres[0].body, m.body_index("foot_r"));
+  auto field_of = [&](const std::string& text) {
+    try {
+      parse_contact_set_json(text, "feet.json", m);
+    } catch (const InputError& e) {
+      return e.field();
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(field_of(R"({"spheres": [{"body": "hoof", "location_m": [0, 0, 0]}]})"), "spheres[0].body");
+  EXPECT_EQ(field_of(R"({"spheres": [{"body": "foot_r", "location_m": [0, 0]}]})"), "spheres[0].location_m");
+  EXPECT_EQ(field_of(R"({"spheres": [{"body": "foot_r", "location_m": [0, 0, 0], "radius_m": -1}]})"), "spheres[0].radius_m");
+  EXPECT_EQ(field_of(R"({"spheres": []})"), "spheres");
 }

@@ -4,6 +4,7 @@
 #include <random>
 
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/muscle_path.h"
 #include "cpgait/muscles/thelen2003.h"
 #include "test_support.h"
@@ -136,4 +137,34 @@ TEST(Thelen2003, RigidTendonForceAtOptimalLength) {
   // Activation is clamped to OpenSim's minimum of 0.01.
   EXPECT_NEAR(thelen2003::rigid_tendon_active_force(m, 0.0, L, 0.0), 0.01 * thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0), 1e-9);
   EXPECT_LT(thelen2003::rigid_tendon_active_force(m, 1.0, L, -0.2), thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0));
+}
+
+// Thelen's activation dynamics: a step of excitation is followed at the rates the time constants set
+// (faster up than down), and the excitation is clamped to the muscle's control range.
+TEST(ActivationDynamics, StepResponsesFollowTheTimeConstants) {
+  Muscle m;
+  m.activation_time_constant_s = 0.015;
+  m.deactivation_time_constant_s = 0.060;
+  m.min_control = 0.01;
+  auto simulate = [&](double a, double u, double duration) {
+    const double dt = 1e-5;
+    for (double t = 0; t < duration; t += dt) a += dt * thelen_activation_rate(m, u, a);
+    return a;
+  };
+  // Up: at a = 0.01 the time constant is 0.015 * 0.515 s; 63 % of the way within roughly 2-3 of the
+  // state-dependent time constants (it grows as a rises).
+  const double up = simulate(0.01, 1.0, 0.02);
+  const double down = simulate(1.0, 0.0, 0.02);
+  EXPECT_GT(up, 0.63);
+  EXPECT_GT(down, 0.37);        // deactivation is slower: after 20 ms it has fallen less than 63 %...
+  EXPECT_LT(1.0 - down, up);    // ...than activation rose
+  EXPECT_NEAR(simulate(0.5, 0.0, 2.0), 0.01, 1e-6);  // settles at min_control, not 0
+  EXPECT_NEAR(simulate(0.5, 3.0, 1.0), 1.0, 1e-6);   // excitation clamped at max_control
+  // The rate at a = u is zero; its sign follows u - a.
+  EXPECT_DOUBLE_EQ(thelen_activation_rate(m, 0.3, 0.3), 0.0);
+  EXPECT_GT(thelen_activation_rate(m, 0.4, 0.3), 0.0);
+  EXPECT_LT(thelen_activation_rate(m, 0.2, 0.3), 0.0);
+  // Up from 0.3 to 0.4: tau_act (0.5 + 1.5 * 0.3) = 0.01425 s.
+  EXPECT_NEAR(thelen_activation_rate(m, 0.4, 0.3), 0.1 / (0.015 * 0.95), 1e-12);
+  EXPECT_NEAR(thelen_activation_rate(m, 0.2, 0.3), -0.1 / (0.060 / 0.95), 1e-12);
 }

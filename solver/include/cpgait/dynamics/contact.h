@@ -1,0 +1,52 @@
+#pragma once
+// Foot-ground contact for simulations without force plates: smooth sphere/half-space contact after
+// Hunt & Crossley (1975) with the smoothing of Serrancoli et al. (2019), OpenSim's
+// SmoothSphereHalfSpaceForce. Spheres are fixed on bodies; the ground is the plane y = height.
+//   penetration d = r - (y_centre - height), smoothed positive part d+ = (d + sqrt(d^2 + eps^2)) / 2
+//   normal      Fn = k d+^1.5 (1 + 1.5 c d'), d' = -v_y (compressing > 0), clamped at >= 0
+//   friction    Ft = -mu(|vt|) Fn vt/|vt|, mu rising smoothly (Stribeck) from 0 through mu_s to mu_d
+// Parameters come from a JSON side file (schema below) so any model can get feet.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "cpgait/model/model.h"
+
+namespace cpgait {
+
+struct ContactSphere {
+  std::string name;
+  int body = 0;
+  Eigen::Vector3d location_m = Eigen::Vector3d::Zero();  // centre, in the body frame
+  double radius_m = 0.035;
+  double stiffness = 1e6;             // k, N/m^1.5
+  double dissipation = 2.0;           // c, s/m (Hunt-Crossley)
+  double static_friction = 0.8;
+  double dynamic_friction = 0.8;
+  double viscous_friction = 0.5;      // s/m
+  double transition_velocity = 0.2;   // m/s: the Stribeck peak
+};
+
+struct ContactSet {
+  double ground_height_m = 0.0;
+  double smoothing_m = 1e-5;  // eps: the penetration below which the force fades out smoothly
+  std::vector<ContactSphere> spheres;
+};
+
+// The force (N, ground frame) the ground applies at the sphere's lowest point, from the sphere
+// centre's position and velocity in ground.
+Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& set, const Eigen::Vector3d& centre_G_m,
+                                     const Eigen::Vector3d& velocity_G_m_s);
+
+// JSON "cpgait.contact/1": {"ground_height_m": 0, "defaults": {sphere fields}, "spheres": [{"name",
+// "body", "location_m": [3], "radius_m", "stiffness", "dissipation", "static_friction",
+// "dynamic_friction", "viscous_friction", "transition_velocity"}]}; missing fields take "defaults",
+// then the values above. Throws InputError naming the field.
+ContactSet parse_contact_set_json(const std::string& text, const std::string& name, const Model& model);
+ContactSet read_contact_set(const std::string& path, const Model& model);
+
+// Two spheres per foot (heel and toes) on calcn_/toes_ bodies (gait2392 and its kin) or on foot_
+// bodies (the fixture walker): the default when a simulation has no GRF and no contact file.
+ContactSet default_foot_contacts(const Model& model);
+
+}  // namespace cpgait

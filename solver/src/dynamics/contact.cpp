@@ -1,0 +1,112 @@
+#include "cpgait/dynamics/contact.h"
+
+#include <cmath>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/json_input.h"
+#include "cpgait/capture/text_lines.h"
+
+namespace cpgait {
+
+Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& set, const Eigen::Vector3d& c,
+                                     const Eigen::Vector3d& v) {
+  const double d = s.radius_m - (c.y() - set.ground_height_m);
+  const double eps = set.smoothing_m;
+  const double d_pos = 0.5 * (d + std::sqrt(d * d + eps * eps));
+  const double rate = -v.y();  // penetration rate
+  double fn = s.stiffness * std::pow(d_pos, 1.5) * (1 + 1.5 * s.dissipation * rate);
+  fn = 0.5 * (fn + std::sqrt(fn * fn + 1e-12));  // smooth clamp at zero (no pulling)
+  Eigen::Vector3d f(0, fn, 0);
+  const Eigen::Vector2d vt(v.x(), v.z());
+  const double speed = std::sqrt(vt.squaredNorm() + 1e-12);
+  const double x = speed / s.transition_velocity;
+  // OpenSim's smooth Stribeck curve: rises to mu_s near the transition velocity, settles at mu_d,
+  // plus a viscous part.
+  const double mu = s.dynamic_friction * std::tanh(4 * x) + (s.static_friction - s.dynamic_friction) * x / std::pow(0.25 * x * x + 0.75, 2) +
+                    s.viscous_friction * speed;
+  f.x() = -mu * fn * v.x() / speed;
+  f.z() = -mu * fn * v.z() / speed;
+  return f;
+}
+
+namespace {
+
+void read_sphere_fields(const nlohmann::json& j, ContactSphere& s, const std::string& name, const std::string& at) {
+  auto num = [&](const char* key, double& out, double lo, double hi) {
+    if (!j.contains(key)) return;
+    out = json_field<double>(j, key, name, at);
+    if (!(out >= lo && out <= hi))
+      throw InputError(name, 0, (at.empty() ? std::string() : at + ".") + key, "expected " + std::to_string(lo) + " to " + std::to_string(hi));
+  };
+  num("radius_m", s.radius_m, 1e-3, 1.0);
+  num("stiffness", s.stiffness, 1.0, 1e12);
+  num("dissipation", s.dissipation, 0.0, 100.0);
+  num("static_friction", s.static_friction, 0.0, 10.0);
+  num("dynamic_friction", s.dynamic_friction, 0.0, 10.0);
+  num("viscous_friction", s.viscous_friction, 0.0, 100.0);
+  num("transition_velocity", s.transition_velocity, 1e-4, 10.0);
+}
+
+}  // namespace
+
+ContactSet parse_contact_set_json(const std::string& text, const std::string& name, const Model& model) {
+  const nlohmann::json j = parse_json_input(text, name);
+  if (!j.is_object() || !j.contains("spheres") || !j["spheres"].is_array() || j["spheres"].empty())
+    throw InputError(name, 0, "spheres", "expected an object with a non-empty \"spheres\" array");
+  ContactSet set;
+  if (j.contains("ground_height_m")) set.ground_height_m = json_field<double>(j, "ground_height_m", name, "");
+  ContactSphere defaults;
+  if (j.contains("defaults")) read_sphere_fields(j["defaults"], defaults, name, "defaults");
+  for (std::size_t i = 0; i < j["spheres"].size(); ++i) {
+    const auto& e = j["spheres"][i];
+    const std::string at = "spheres[" + std::to_string(i) + "]";
+    ContactSphere s = defaults;
+    s.name = e.value("name", at);
+    const std::string body = json_field<std::string>(e, "body", name, at);
+    s.body = model.body_index(body);
+    if (s.body <= 0) throw InputError(name, 0, at + ".body", "model " + model.name + " has no body " + body);
+    const auto p = json_field<std::vector<double>>(e, "location_m", name, at);
+    if (p.size() != 3) throw InputError(name, 0, at + ".location_m", "expected 3 numbers (m, body frame)");
+    s.location_m = {p[0], p[1], p[2]};
+    read_sphere_fields(e, s, name, at);
+    set.spheres.push_back(s);
+  }
+  return set;
+}
+
+ContactSet read_contact_set(const std::string& path, const Model& model) {
+  return parse_contact_set_json(text::read_file(path), path, model);
+}
+
+ContactSet default_foot_contacts(const Model& model) {
+  ContactSet set;
+  for (const char* side : {"r", "l"}) {
+    const double z = side[0] == 'r' ? 1.0 : -1.0;
+    const int calcn = model.body_index(std::string("calcn_") + side), toes = model.body_index(std::string("toes_") + side);
+    const int foot = model.body_index(std::string("foot_") + side);
+    ContactSphere heel, toe;
+    heel.name = std::string("heel_") + side;
+    toe.name = std::string("toes_") + side;
+    if (calcn > 0) {
+      // gait2392's calcaneus frame sits at the heel's back, about 1 cm above the sole.
+      heel.body = calcn;
+      heel.location_m = {0.031, 0.010, 0.0};
+      toe.body = toes > 0 ? toes : calcn;
+      toe.location_m = toes > 0 ? Eigen::Vector3d(0.030, -0.008, z * 0.005) : Eigen::Vector3d(0.17, 0.010, z * 0.005);
+      heel.radius_m = toe.radius_m = 0.032;
+    } else if (foot > 0) {
+      // The fixture walker's foot frame is at the ankle; its sole is 7 cm below.
+      heel.body = toe.body = foot;
+      heel.location_m = {0.0, -0.04, 0.0};
+      toe.location_m = {0.16, -0.04, 0.0};
+      heel.radius_m = toe.radius_m = 0.03;
+    } else {
+      continue;
+    }
+    set.spheres.push_back(heel);
+    set.spheres.push_back(toe);
+  }
+  return set;
+}
+
+}  // namespace cpgait
