@@ -82,11 +82,8 @@ void add_cpg_commands(CLI::App& app) {
     for (std::size_t k = 0; k < cols.size(); ++k) patterns.col(static_cast<Eigen::Index>(k)) = s.data.col(cols[k]);
     const std::vector<double> time = column_of(s, 0);
     const Eigen::MatrixXd cycle = cycle_average(time, patterns, starts, f->o.phase_samples);
-    double cycle_s = 0;
     int cycles = 0;
-    for (std::size_t k = 0; k + 1 < starts.size(); ++k)
-      if (starts[k] >= time.front() - 1e-9 && starts[k + 1] <= time.back() + 1e-9) cycle_s += starts[k + 1] - starts[k], ++cycles;
-    cycle_s /= cycles;
+    const double cycle_s = mean_cycle_duration(time, starts, &cycles);
     const CpgFitResult r = fit_cpg(cycle, cycle_s, names, f->o);
     write_text_atomic(f->out, r.model.to_json().dump(2) + "\n");
     const std::string stem = (fs::path(f->out).parent_path() / fs::path(f->out).stem()).string();

@@ -60,8 +60,8 @@ void add_run_command(CLI::App& app) {
     in.tags_path = input(a->tags, "tags");
     if (!a->videos.empty()) {
       for (const std::string& v : a->videos) {
-        const auto eq = v.find('=');
-        in.videos.push_back(eq == std::string::npos ? fs::absolute(v).string() : v.substr(0, eq + 1) + fs::absolute(v.substr(eq + 1)).string());
+        const auto [camera, path] = video::parse_video_argument(v);
+        in.videos.push_back(camera + "=" + fs::absolute(path).string());  // job.json then works from anywhere
       }
     } else if (options.inputs.contains("videos") && options.inputs["videos"].is_array()) {
       for (const auto& v : options.inputs["videos"]) in.videos.push_back(v.get<std::string>());

@@ -93,14 +93,13 @@ void add_video_commands(CLI::App& app) {
     const video::CalibrationBoard board = video::make_aprilgrid(video::read_aprilgrid_spec(c->board));
     c->det.family = board.family;
     std::vector<std::string> names;
-    std::vector<video::CameraFootage> footage;
+    std::vector<std::pair<int, std::string>> videos;
     for (const std::string& v : c->videos) {
-      const auto eq = v.find('=');
-      const std::string name = eq != std::string::npos ? v.substr(0, eq) : fs::path(v).stem().string();
-      const std::string path = eq != std::string::npos ? v.substr(eq + 1) : v;
-      footage.push_back(video::detect_video(static_cast<int>(names.size()), path, c->det, video::TagTrackerOptions{}, 30.0));
+      const auto [name, path] = video::parse_video_argument(v);
+      videos.emplace_back(static_cast<int>(names.size()), path);
       names.push_back(name);
     }
+    const std::vector<video::CameraFootage> footage = video::detect_videos(videos, c->det, video::TagTrackerOptions{}, 30.0);
     c->o.world_from_reference_board.linear() =
         rotation_from_body_xyz(Eigen::Vector3d(c->xyz_deg[0], c->xyz_deg[1], c->xyz_deg[2]) * (M_PI / 180));
     c->o.world_from_reference_board.translation() = Eigen::Vector3d(c->position[0], c->position[1], c->position[2]);

@@ -6,6 +6,7 @@
 #include "cpgait/activation/static_optimization.h"
 #include "cpgait/capture/external_loads.h"
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/json_input.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
@@ -101,13 +102,7 @@ bool PipelineOptions::wants(const std::string& stage) const {
 }
 
 PipelineOptions PipelineOptions::parse(const std::string& text, const std::string& source) {
-  json j;
-  try {
-    j = text.empty() ? json::object() : json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw InputError(source, 0, "", std::string("malformed JSON: ") + e.what());
-  }
-  return from_json(j, source);
+  return from_json(text.empty() ? json::object() : parse_json_input(text, source), source);
 }
 
 PipelineOptions PipelineOptions::from_json(const json& j, const std::string& source) {
@@ -403,17 +398,13 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     }
     const int nm = static_cast<int>(model.muscles.size());
     std::vector<std::string> names(so_result.names.begin(), so_result.names.begin() + nm);
-    double cycle_s = 0;
     int cycles = 0;
-    for (std::size_t k = 0; k + 1 < strikes.size(); ++k)
-      if (strikes[k] >= so_result.time_s.front() - 1e-9 && strikes[k + 1] <= so_result.time_s.back() + 1e-9)
-        cycle_s += strikes[k + 1] - strikes[k], ++cycles;
+    const double cycle_s = mean_cycle_duration(so_result.time_s, strikes, &cycles);
     summary = {{"heel_strikes_s", strikes}, {"heel_strike_source", source}, {"cycles", cycles}};
     if (cycles == 0 || nm == 0) {
       // Not an error of the trial: IK, ID and SO stand; the stage says why it fitted nothing.
       summary["not_fitted"] = nm == 0 ? "the model has no muscles" : "no full gait cycle (two heel strikes of one foot) inside the trial";
     } else {
-      cycle_s /= cycles;
       CpgFitOptions fo;
       fo.pairs = options.cpg_pairs;
       fo.pattern_units = options.cpg_pattern_units;
@@ -430,8 +421,7 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
       const int rhythm = 2 * fo.pairs;
       for (int i = 0; i < fit.model.network.size(); ++i)
         neurons.push_back(i < rhythm ? "rhythm" + std::to_string(i) : "pattern" + std::to_string(i - rhythm));
-      std::vector<double> run_time(run.time_s.begin(), run.time_s.end());
-      write(make_storage("CPG neuron outputs over one cycle", neurons, run_time, run.neurons, false), in.name + "_cpg_neurons.sto");
+      write(make_storage("CPG neuron outputs over one cycle", neurons, run.time_s, run.neurons, false), in.name + "_cpg_neurons.sto");
       json r2 = json::object();
       for (std::size_t k = 0; k < names.size(); ++k) r2[names[k]] = fit.summary.r_squared[static_cast<Eigen::Index>(k)];
       summary["cycle_s"] = cycle_s;

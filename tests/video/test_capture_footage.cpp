@@ -108,7 +108,7 @@ TEST(CaptureFootage, WalkerFromFourCamerasTriangulatesAndTracksJointAngles) {
   std::printf("[ info ] %s\n[ info ] worst joint angle RMS on the walk: true placement %.3f deg, by hand %.3f deg, registered %.3f deg\n",
               rs.BriefReport().c_str(), worst, hand, reg);
   std::string kept;
-  for (int id : rs.unchanged) kept += " " + std::to_string(id);
+  for (int id : rs.unchanged) kept.append(" ").append(std::to_string(id));  // not operator+: GCC 12 warns falsely (-Wrestrict)
   std::printf("[ info ] tags not seen well enough in the static trial (kept as placed):%s\n", kept.c_str());
   // Every tag the static trial saw is re-placed, its corners then fit to a third of a millimetre;
   // the walk's joint angles improve. (Tags the static trial did not see keep their error.)

@@ -71,6 +71,12 @@ std::string CaptureSummary::BriefReport() const {
   return s.str();
 }
 
+std::pair<std::string, std::string> parse_video_argument(const std::string& argument) {
+  const auto eq = argument.find('=');
+  if (eq != std::string::npos) return {argument.substr(0, eq), argument.substr(eq + 1)};
+  return {std::filesystem::path(argument).stem().string(), argument};
+}
+
 std::vector<std::pair<int, std::string>> match_videos_to_cameras(const CameraRig& rig,
                                                                  const std::vector<std::string>& videos) {
   auto find = [&](const std::string& name) {
@@ -83,14 +89,7 @@ std::vector<std::pair<int, std::string>> match_videos_to_cameras(const CameraRig
   std::vector<std::pair<int, std::string>> out;
   std::vector<bool> used(rig.size(), false);
   for (const std::string& v : videos) {
-    std::string name, path = v;
-    const auto eq = v.find('=');
-    if (eq != std::string::npos) {
-      name = v.substr(0, eq);
-      path = v.substr(eq + 1);
-    } else {
-      name = std::filesystem::path(v).stem().string();
-    }
+    const auto [name, path] = parse_video_argument(v);
     const int cam = find(name);
     if (cam < 0)
       throw InputError(path, 0, "videos", "no camera named '" + name + "' in the calibration (cameras: " + names +
@@ -266,8 +265,8 @@ CaptureResult triangulate_footage(const CameraRig& rig, const TagSet& tags, cons
     }
   }
   // Centre markers: the mean of the tag's four corners where all four exist (views: the fewest).
-  for (int i = 0, m = 4 * static_cast<int>(tags.tags.size()); i < num_frames; ++i, m = 4 * static_cast<int>(tags.tags.size()))
-    for (std::size_t t = 0; t < tags.tags.size(); ++t) {
+  for (int i = 0; i < num_frames; ++i)
+    for (std::size_t t = 0, m = 4 * tags.tags.size(); t < tags.tags.size(); ++t) {
       if (tags.tags[t].center_marker.empty()) continue;
       int views = 1 << 20;
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -283,7 +282,7 @@ CaptureResult triangulate_footage(const CameraRig& rig, const TagSet& tags, cons
         r.views(i, m) = views;
         r.reprojection_px(i, m) = rms;
       }
-      ++m;
+      ++m;  // centre markers follow every corner, in tag order
     }
   s.num_frames = num_frames;
   if (options.max_gap_fill_s > 0) s.corners_filled = fill_gaps(r, options.max_gap_fill_s);
@@ -301,35 +300,41 @@ CaptureResult triangulate_footage(const CameraRig& rig, const TagSet& tags, cons
   return r;
 }
 
-CaptureResult capture_markers(const CameraRig& rig, const TagSet& tags, const std::vector<std::string>& videos,
-                              const CaptureOptions& options, Progress* progress) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const auto matched = match_videos_to_cameras(rig, videos);
-  TagDetectorOptions detector = options.detector;
-  detector.family = tags.family;
-  std::vector<CameraFootage> footage(matched.size());
-  std::vector<std::exception_ptr> errors(matched.size());
+std::vector<CameraFootage> detect_videos(const std::vector<std::pair<int, std::string>>& videos, const TagDetectorOptions& detector,
+                                         const TagTrackerOptions& tracker, double fallback_rate_hz, int threads, Progress* progress) {
+  std::vector<CameraFootage> footage(videos.size());
+  std::vector<std::exception_ptr> errors(videos.size());
   std::atomic<std::size_t> next{0}, done{0};
   std::mutex progress_mutex;
   auto work = [&] {
-    for (std::size_t i; (i = next++) < matched.size();) {
+    for (std::size_t i; (i = next++) < videos.size();) {
       try {
-        footage[i] = detect_video(matched[i].first, matched[i].second, detector, options.tracker, options.frame_rate_hz);
+        footage[i] = detect_video(videos[i].first, videos[i].second, detector, tracker, fallback_rate_hz);
       } catch (...) {
         errors[i] = std::current_exception();
       }
       const std::lock_guard lock(progress_mutex);
-      if (progress) progress->report(0.9 * static_cast<double>(++done) / static_cast<double>(matched.size()), "detecting tags");
+      if (progress) progress->report(0.9 * static_cast<double>(++done) / static_cast<double>(videos.size()), "detecting tags");
     }
   };
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t n_threads = std::min<std::size_t>(matched.size(), options.threads > 0 ? static_cast<unsigned>(options.threads) : hw);
+  const std::size_t n_threads = std::min<std::size_t>(videos.size(), threads > 0 ? static_cast<unsigned>(threads) : hw);
   std::vector<std::thread> pool;
   for (std::size_t k = 1; k < n_threads; ++k) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
   for (const auto& e : errors)
     if (e) std::rethrow_exception(e);
+  return footage;
+}
+
+CaptureResult capture_markers(const CameraRig& rig, const TagSet& tags, const std::vector<std::string>& videos,
+                              const CaptureOptions& options, Progress* progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TagDetectorOptions detector = options.detector;
+  detector.family = tags.family;
+  const std::vector<CameraFootage> footage = detect_videos(match_videos_to_cameras(rig, videos), detector, options.tracker,
+                                                           options.frame_rate_hz, options.threads, progress);
   const double detect_s = seconds_since(t0);
   CaptureResult r = triangulate_footage(rig, tags, footage, options);
   r.summary.detect_seconds = detect_s;

@@ -53,7 +53,7 @@ std::vector<TagDetection> TagTracker::detect(const cv::Mat& image) {
   }
   if (window.area() <= 0) return found;
   region_area_ += static_cast<double>(window.area()) / gray.total();
-  std::vector<TagDetection> fine = fine_.detect(gray(window).clone());
+  std::vector<TagDetection> fine = fine_.detect(gray(window));  // detect() copies a non-continuous view
   for (TagDetection& d : fine) {
     for (auto& c : d.corners_px) c += Eigen::Vector2d(window.x, window.y);
     d.center_px += Eigen::Vector2d(window.x, window.y);

@@ -252,11 +252,27 @@ std::vector<double> contact_onsets(const Eigen::VectorXd& time, const Eigen::Vec
   return out;
 }
 
-Eigen::MatrixXd cycle_average(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
-                              const std::vector<double>& starts, int samples) {
+namespace {
+// The cycles (start, end) lying inside the data.
+std::vector<std::pair<double, double>> cycles_inside(const std::vector<double>& time, const std::vector<double>& starts) {
   std::vector<std::pair<double, double>> cycles;
   for (std::size_t k = 0; k + 1 < starts.size(); ++k)
-    if (starts[k] >= time.front() - 1e-9 && starts[k + 1] <= time.back() + 1e-9) cycles.push_back({starts[k], starts[k + 1]});
+    if (!time.empty() && starts[k] >= time.front() - 1e-9 && starts[k + 1] <= time.back() + 1e-9) cycles.push_back({starts[k], starts[k + 1]});
+  return cycles;
+}
+}  // namespace
+
+double mean_cycle_duration(const std::vector<double>& time, const std::vector<double>& starts, int* count) {
+  const auto cycles = cycles_inside(time, starts);
+  double sum = 0;
+  for (const auto& [t0, t1] : cycles) sum += t1 - t0;
+  if (count) *count = static_cast<int>(cycles.size());
+  return cycles.empty() ? 0.0 : sum / static_cast<double>(cycles.size());
+}
+
+Eigen::MatrixXd cycle_average(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
+                              const std::vector<double>& starts, int samples) {
+  const auto cycles = cycles_inside(time, starts);
   if (cycles.empty())
     throw InputError("gait cycles", 0, "cycle_starts", "no full gait cycle (two heel strikes) lies inside the patterns' time range");
   Eigen::MatrixXd avg = Eigen::MatrixXd::Zero(samples, patterns.cols());

@@ -71,6 +71,9 @@ struct CaptureResult {
   CaptureSummary summary;
 };
 
+// A video argument "NAME=PATH", or a PATH whose file stem names the camera: {name, path}.
+std::pair<std::string, std::string> parse_video_argument(const std::string& argument);
+
 // Pairs each video with a camera of the rig: "NAME=PATH", or a file whose stem is a camera's name.
 // Throws InputError naming the video when no camera matches.
 std::vector<std::pair<int, std::string>> match_videos_to_cameras(const CameraRig& rig,
@@ -82,6 +85,11 @@ void probe_video(const std::string& path);
 // Decodes and detects; throws InputError for a video that cannot be opened or decoded.
 CameraFootage detect_video(int camera, const std::string& path, const TagDetectorOptions& detector,
                            const TagTrackerOptions& tracker = {}, double fallback_rate_hz = 0);
+
+// detect_video for every (camera, path), one thread per video (up to `threads`, 0: the hardware's).
+std::vector<CameraFootage> detect_videos(const std::vector<std::pair<int, std::string>>& videos, const TagDetectorOptions& detector,
+                                         const TagTrackerOptions& tracker = {}, double fallback_rate_hz = 0, int threads = 0,
+                                         Progress* progress = nullptr);
 
 // Aligns and triangulates already-detected footage (tests and the service feed this directly).
 CaptureResult triangulate_footage(const CameraRig& rig, const TagSet& tags, const std::vector<CameraFootage>& footage,

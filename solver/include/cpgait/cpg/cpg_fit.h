@@ -83,6 +83,10 @@ std::vector<double> contact_onsets(const Eigen::VectorXd& time_s, const Eigen::V
 Eigen::MatrixXd cycle_average(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
                               const std::vector<double>& cycle_starts_s, int samples);
 
+// Mean duration (s) of the cycles cycle_average uses (those lying inside `time`); 0 when none.
+// cycles receives how many there are.
+double mean_cycle_duration(const std::vector<double>& time, const std::vector<double>& cycle_starts_s, int* cycles = nullptr);
+
 CpgFitResult fit_cpg(const Eigen::MatrixXd& cycle_patterns, double cycle_s, const std::vector<std::string>& muscle_names,
                      const CpgFitOptions& options = {});
 
