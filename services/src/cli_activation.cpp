@@ -1,9 +1,13 @@
-// so: static optimization from the command line and from OpenSim AnalyzeTool setups.
+// so and cmc: static optimization and computed muscle control from the command line and from
+// OpenSim AnalyzeTool and CMCTool setups.
 #include <cstdio>
 #include <filesystem>
 
 #include "commands.h"
+#include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/activation/static_optimization.h"
+#include "cpgait/capture/cmc_setup.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/analyze_setup.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/model/osim_reader.h"
@@ -55,6 +59,62 @@ void run_so(const SoInputs& in) {
               f.c_str());
 }
 
+
+struct CmcInputs {
+  std::string model, kinematics, tasks, constraints, loads, grf, contacts, out_dir, name = "cmc";
+  std::vector<std::string> actuator_files;
+  bool replace_force_set = false;
+  bool no_contact = false;
+  ComputedMuscleControlOptions options;
+};
+
+void run_cmc(const CmcInputs& in) {
+  OsimReadResult mr = read_osim(in.model);
+  print_warnings(mr.warnings);
+  std::vector<ActuatorSpec> specs;
+  if (in.replace_force_set) mr.model.muscles.clear();
+  else specs = read_actuators(in.model);
+  for (const auto& f : in.actuator_files) {
+    auto more = read_actuators(f);
+    specs.insert(specs.end(), more.begin(), more.end());
+  }
+  const ResolvedActuators actuators(mr.model, specs);
+  std::unique_ptr<AppliedLoads> loads;
+  if (!in.loads.empty()) {
+    const ExternalLoadsSpec spec = read_external_loads(in.loads);
+    const std::string data = !in.grf.empty() ? in.grf : resolve_setup_file(spec.setup_dir, spec.datafile, in.loads, "datafile");
+    loads = std::make_unique<AppliedLoads>(mr.model, spec, read_storage(data));
+  }
+  std::optional<ContactSet> contacts;
+  if (!loads && !in.no_contact) contacts = in.contacts.empty() ? default_foot_contacts(mr.model) : read_contact_set(in.contacts, mr.model);
+  if (contacts && contacts->spheres.empty())
+    throw InputError(in.model, 0, "contacts", "no GRF was given and the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --loads or --contacts");
+  const std::vector<CmcJointTask> tasks = read_cmc_tasks(in.tasks);
+  std::optional<ControlSetSpec> constraints;
+  if (!in.constraints.empty()) constraints = read_control_set(in.constraints);
+  const ComputedMuscleControlResult r =
+      computed_muscle_control(mr.model, read_storage(in.kinematics), loads.get(), contacts ? &*contacts : nullptr, actuators,
+                              tasks, constraints ? &*constraints : nullptr, in.options);
+  print_warnings(r.summary.warnings);
+  ensure_directory(in.out_dir);
+  auto path = [&](const char* suffix) { return (fs::path(in.out_dir) / (in.name + suffix)).string(); };
+  write_storage_atomic(cmc_controls_table(r), path("_controls.sto"));
+  write_storage_atomic(cmc_states_table(r), path("_states.sto"));
+  write_storage_atomic(cmc_kinematics_q_table(mr.model, r), path("_Kinematics_q.sto"));
+  write_storage_atomic(cmc_position_error_table(r), path("_pErr.sto"));
+  write_storage_atomic(cmc_actuation_force_table(r), path("_Actuation_force.sto"));
+  write_text_atomic(path("_avgResiduals.txt"), cmc_average_residuals_text(r));
+  std::printf("%s\n", r.summary.BriefReport().c_str());
+  const Eigen::VectorXd rms = r.position_error_rms();
+  int worst = 0;
+  for (int c = 0; c < rms.size(); ++c)
+    if (mr.model.coordinates[c].is_angle() && rms[c] > rms[worst]) worst = c;
+  std::printf("tracking error (RMS): worst rotational %s %.3f deg\n", r.coordinate_names[worst].c_str(), rms[worst] * 180 / M_PI);
+  std::printf("%s", cmc_average_residuals_text(r).c_str());
+  std::printf("wrote %s_{controls,states,Kinematics_q,pErr,Actuation_force}.sto and %s_avgResiduals.txt in %s\n",
+              in.name.c_str(), in.name.c_str(), in.out_dir.c_str());
+}
+
 }  // namespace
 
 void run_so_setup(const std::string& setup_path, const std::string& results_override) {
@@ -76,6 +136,26 @@ void run_so_setup(const std::string& setup_path, const std::string& results_over
   in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
   in.name = s.name.empty() ? "static_optimization" : s.name;
   run_so(in);
+}
+
+void run_cmc_setup(const std::string& setup_path, const std::string& results_override) {
+  const CmcSetup s = read_cmc_setup(setup_path);
+  CmcInputs in;
+  in.model = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
+  in.kinematics = resolve_setup_file(s.setup_dir, s.desired_kinematics_file, setup_path, "desired_kinematics_file");
+  in.tasks = resolve_setup_file(s.setup_dir, s.task_set_file, setup_path, "task_set_file");
+  in.constraints = resolve_setup_file(s.setup_dir, s.constraints_file, setup_path, "constraints_file");
+  in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
+  for (const auto& f : s.force_set_files) in.actuator_files.push_back(resolve_setup_file(s.setup_dir, f, setup_path, "force_set_files"));
+  in.replace_force_set = s.replace_force_set;
+  in.options.time_range_s = std::make_pair(s.initial_time_s, s.final_time_s);
+  in.options.window_s = s.cmc_time_window_s;
+  in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
+  in.options.integrator_tolerance = s.integrator_error_tolerance;
+  if (!s.use_fast_target) std::fprintf(stderr, "warning: the slow optimization target is not implemented; using the fast target\n");
+  in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
+  in.name = s.name.empty() ? "cmc" : s.name;
+  run_cmc(in);
 }
 
 void add_activation_commands(CLI::App& app) {
@@ -108,6 +188,37 @@ void add_activation_commands(CLI::App& app) {
     if (time->size() == 2) a->options.time_range_s = std::make_pair((*time)[0], (*time)[1]);
     a->options.use_muscle_physiology = !*no_physiology;
     run_so(*a);
+  });
+  auto* cmc = app.add_subcommand(
+      "cmc",
+      "Computed muscle control (OpenSim's CMC, fast target): muscle excitations that make the muscle-driven\n"
+      "model track desired kinematics, window by window (PD task accelerations -> force distribution ->\n"
+      "excitations -> forward dynamics). With --loads the measured GRF act on the model; without, contact\n"
+      "spheres do (--contacts JSON, default two per foot). Outputs in DIR: <name>_controls.sto, _states.sto,\n"
+      "_Kinematics_q.sto (deg), _pErr.sto (rad, m), _Actuation_force.sto, _avgResiduals.txt.");
+  auto c = std::make_shared<CmcInputs>();
+  auto ctime = std::make_shared<std::vector<double>>();
+  cmc->add_option("--model", c->model, "OpenSim model (.osim)")->required()->check(CLI::ExistingFile);
+  cmc->add_option("--kinematics", c->kinematics, "desired coordinates (.mot/.sto), e.g. RRA's or IK's")->required()->check(CLI::ExistingFile);
+  cmc->add_option("--tasks", c->tasks, "CMC task set .xml (coordinates tracked, kp, kv)")->required()->check(CLI::ExistingFile);
+  cmc->add_option("--constraints", c->constraints, "control constraints ControlSet .xml")->check(CLI::ExistingFile);
+  cmc->add_option("--actuators", c->actuator_files, "actuator ForceSet .xml files (residuals, reserves; repeatable)")->check(CLI::ExistingFile);
+  cmc->add_option("--loads", c->loads, "ExternalLoads .xml (measured GRF)")->check(CLI::ExistingFile);
+  cmc->add_option("--grf", c->grf, "GRF data .mot (default: the datafile the loads name)")->check(CLI::ExistingFile);
+  cmc->add_option("--contacts", c->contacts, "contact spheres JSON (cpgait.contact/1) used without --loads")->check(CLI::ExistingFile);
+  cmc->add_flag("--refresh-actuators", c->options.refresh_actuators,
+                "also re-solve residual and reserve actuators every output interval (default: once per window, as OpenSim)");
+  cmc->add_flag("!--rigid-tendons", c->options.compliant_tendons, "rigid tendons (default: compliant, as OpenSim's Thelen2003Muscle)");
+  cmc->add_flag("--no-contact", c->no_contact, "without --loads, apply no ground forces at all (residuals carry the body)");
+  cmc->add_option("--time", *ctime, "first and last time, seconds")->expected(2);
+  cmc->add_option("--window", c->options.window_s, "CMC time window, s")->check(CLI::Range(1e-3, 0.5))->capture_default_str();
+  cmc->add_option("--cutoff", c->options.lowpass_cutoff_hz, "low-pass cutoff for the desired kinematics, Hz (negative: none)")->capture_default_str();
+  cmc->add_option("--tolerance", c->options.integrator_tolerance, "integrator error tolerance")->check(CLI::Range(1e-10, 1e-2))->capture_default_str();
+  cmc->add_option("--name", c->name, "output file prefix")->capture_default_str();
+  cmc->add_option("-o,--output", c->out_dir, "output folder")->required();
+  cmc->callback([c, ctime] {
+    if (ctime->size() == 2) c->options.time_range_s = std::make_pair((*ctime)[0], (*ctime)[1]);
+    run_cmc(*c);
   });
 }
 

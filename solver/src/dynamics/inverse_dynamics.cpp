@@ -31,6 +31,21 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
   bool degrees = options.assume_degrees_when_unspecified;
   if (coords.in_degrees) degrees = *coords.in_degrees;
   else out.warnings.push_back("the coordinates file does not say inDegrees; read as " + std::string(degrees ? "degrees" : "radians"));
+  if (!degrees) {
+    // OpenSim 2.x wrote degrees under inDegrees=no (the gait2392 RRA and CMC outputs): no joint angle
+    // in radians goes past 2 pi, so such a column means the header is wrong.
+    for (const auto& co : model.coordinates) {
+      const int col = coordinate_column(coords, co.name);
+      if (col < 0 || !co.is_angle()) continue;
+      const double peak = coords.data.col(col).cwiseAbs().maxCoeff();
+      if (peak > 2 * M_PI + 0.01) {
+        degrees = true;
+        out.warnings.push_back("the coordinates file says inDegrees=no but " + co.name + " reaches " + std::to_string(peak) +
+                               ", which only makes sense in degrees: read as degrees");
+        break;
+      }
+    }
+  }
   const Eigen::VectorXd time = coords.time();
   const std::vector<double> sample_times(time.data(), time.data() + n);
   const double dt = (time[n - 1] - time[0]) / (n - 1);

@@ -1,5 +1,7 @@
 #include "cpgait/muscles/thelen2003.h"
 
+#include "cpgait/muscles/activation_dynamics.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -91,19 +93,94 @@ RigidTendonFiber rigid_tendon_fiber(const Muscle& m, double L, double V) {
   return {fiber, cos_pen, V * cos_pen};
 }
 
-double rigid_tendon_active_force(const Muscle& m, double activation, double L, double V) {
-  const RigidTendonFiber f = rigid_tendon_fiber(m, L, V);
+double cos_pennation(const Muscle& m, double lm) {
+  const double height = m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad);
+  const double r = height / std::max(lm, min_fiber_length(m));
+  return std::sqrt(std::max(0.0, 1.0 - r * r));
+}
+
+double min_fiber_length(const Muscle& m) {
+  const double height = m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad);
+  return std::max(height / std::sin(kMaxPennation), 0.01 * m.optimal_fiber_length_m);
+}
+
+double active_fiber_force_along_tendon(const Muscle& m, double activation, double lm, double vm) {
   const double a = std::clamp(activation, kMinActivation, 1.0);
-  const double lN = f.fiber_length_m / m.optimal_fiber_length_m;
-  const double vN = f.fiber_velocity_m_s / (m.optimal_fiber_length_m * m.max_contraction_velocity);
+  const double lN = lm / m.optimal_fiber_length_m;
+  const double vN = vm / (m.optimal_fiber_length_m * m.max_contraction_velocity);
   const double fal = active_force_length(m, lN);
   const double fv = force_velocity_multiplier(m, a, fal, vN);
-  return m.max_isometric_force_N * a * fal * fv * f.cos_pennation;
+  return m.max_isometric_force_N * a * fal * fv * cos_pennation(m, lm);
+}
+
+double passive_fiber_force_along_tendon(const Muscle& m, double lm) {
+  return m.max_isometric_force_N * passive_force_length(m, lm / m.optimal_fiber_length_m) * cos_pennation(m, lm);
+}
+
+double rigid_tendon_active_force(const Muscle& m, double activation, double L, double V) {
+  const RigidTendonFiber f = rigid_tendon_fiber(m, L, V);
+  return active_fiber_force_along_tendon(m, activation, f.fiber_length_m, f.fiber_velocity_m_s);
 }
 
 double rigid_tendon_passive_force(const Muscle& m, double L) {
-  const RigidTendonFiber f = rigid_tendon_fiber(m, L, 0.0);
-  return m.max_isometric_force_N * passive_force_length(m, f.fiber_length_m / m.optimal_fiber_length_m) * f.cos_pennation;
+  return passive_fiber_force_along_tendon(m, rigid_tendon_fiber(m, L, 0.0).fiber_length_m);
+}
+
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm) {
+  lm = std::max(lm, min_fiber_length(m));
+  const double cos_pen = cos_pennation(m, lm);
+  const double tendon = L - lm * cos_pen;
+  const double force = m.max_isometric_force_N * tendon_force_strain(m, tendon / m.tendon_slack_length_m);
+  const double a = std::clamp(activation, kMinActivation, 1.0);
+  const double lN = lm / m.optimal_fiber_length_m;
+  const double fal = active_force_length(m, lN);
+  const double active = force / (m.max_isometric_force_N * cos_pen) - passive_force_length(m, lN);
+  const double vN = fiber_velocity(m, a, fal, active);
+  return {force, vN * m.optimal_fiber_length_m * m.max_contraction_velocity, cos_pen};
+}
+
+CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm, double L0, double L1, double u,
+                                            double T) {
+  const int n = std::max(1, static_cast<int>(std::ceil(T / 1e-3 - 1e-9)));
+  const double h = T / n;
+  const double lm_min = min_fiber_length(m);
+  for (int i = 1; i <= n; ++i) {
+    a = thelen_activation_after(m, a, u, h);
+    const double L = L0 + (L1 - L0) * i / n;
+    // Backward Euler: g(l) = l - lm - h v(a, L, l) = 0 by Newton with a finite-difference slope;
+    // g rises monotonically (v falls as the fibre lengthens), so a safeguarded step always converges.
+    double l = lm;
+    for (int k = 0; k < 8; ++k) {
+      const double v = compliant_tendon_fiber(m, a, L, l).fiber_velocity_m_s;
+      const double g = l - lm - h * v;
+      const double dl = 1e-7 * m.optimal_fiber_length_m;
+      const double dg = 1.0 - h * (compliant_tendon_fiber(m, a, L, l + dl).fiber_velocity_m_s - v) / dl;
+      const double step = g / std::max(dg, 1.0);
+      l = std::max(l - step, lm_min);
+      if (std::abs(step) < 1e-9 * m.optimal_fiber_length_m) break;
+    }
+    lm = l;
+  }
+  return {a, lm, compliant_tendon_fiber(m, a, L1, lm).force_N};
+}
+
+double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double L, double V) {
+  // Residual: tendon force minus fibre force (along the tendon); it falls as the fibre lengthens
+  // (the tendon slackens while the fibre's passive force grows).
+  auto residual = [&](double lm) {
+    const double cos_pen = cos_pennation(m, lm);
+    const double tendon = m.max_isometric_force_N * tendon_force_strain(m, (L - lm * cos_pen) / m.tendon_slack_length_m);
+    return tendon - active_fiber_force_along_tendon(m, activation, lm, V * cos_pen) - passive_fiber_force_along_tendon(m, lm);
+  };
+  double lo = min_fiber_length(m);
+  double hi = std::max(rigid_tendon_fiber(m, L, 0.0).fiber_length_m, lo);
+  if (residual(lo) <= 0) return lo;
+  if (residual(hi) >= 0) return hi;
+  for (int i = 0; i < 60 && hi - lo > 1e-10; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (residual(mid) > 0 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
 }
 
 }  // namespace cpgait::thelen2003

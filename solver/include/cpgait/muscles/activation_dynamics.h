@@ -10,3 +10,16 @@ namespace cpgait {
 double thelen_activation_rate(const Muscle& muscle, double excitation, double activation);
 
 }  // namespace cpgait
+
+namespace cpgait {
+
+// Activation after `duration_s` of constant excitation from a0 (RK4 on 1 ms or finer substeps:
+// the rate's time constant is at least 0.5 tau_act, ~7 ms for gait2392).
+double thelen_activation_after(const Muscle& muscle, double a0, double excitation, double duration_s);
+
+// The constant excitation in [u_min, u_max] whose activation after duration_s is closest to
+// a_target (bisection: the end activation rises monotonically with the excitation).
+double thelen_excitation_for(const Muscle& muscle, double a0, double a_target, double duration_s, double u_min,
+                             double u_max);
+
+}  // namespace cpgait

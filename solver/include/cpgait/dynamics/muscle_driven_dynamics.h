@@ -1,0 +1,67 @@
+#pragma once
+// The muscle-driven model's state derivative: skeleton (CRBA + RNEA bias), Thelen 2003 muscles with
+// rigid tendons and Thelen activation dynamics, ideal actuators (residuals, reserves), and either
+// measured external loads (GRF) or foot-ground contact spheres.
+//
+// State x = [q (nq), u = dq/dt (nq), activation (muscles), fibre length (muscles, compliant tendons
+// only)]. Inputs per evaluation: muscle excitations and actuator controls at that time (the caller
+// decides how they vary in time).
+//
+// Compliant tendons (OpenSim's Thelen2003Muscle): the fibre length is a state and the force is the
+// tendon's (thelen2003::compliant_tendon_fiber). Rigid tendons: the fibre follows the path
+// (constant-thickness pennation), the force is a * F_active(l, v) + F_passive(l) and the only muscle
+// state is activation; what static optimization assumes. Rigid tendons overestimate passive forces
+// when a muscle is stretched (late swing's hamstrings by ~5x on gait2392), because the tendon does
+// not take up any of the stretch.
+#include <Eigen/Core>
+#include <vector>
+
+#include "cpgait/activation/actuators.h"
+#include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/dynamics/contact.h"
+#include "cpgait/dynamics/forward_dynamics.h"
+#include "cpgait/muscles/muscle_path.h"
+
+namespace cpgait {
+
+struct MuscleDrivenSystem {
+  const Model* model = nullptr;
+  const ResolvedActuators* actuators = nullptr;  // nullptr: none
+  const AppliedLoads* loads = nullptr;           // measured loads at time t; nullptr: none
+  const ContactSet* contacts = nullptr;          // contact spheres; nullptr: none
+  bool compliant_tendons = true;
+  int num_coordinates() const { return model->num_coordinates(); }
+  int num_muscles() const { return static_cast<int>(model->muscles.size()); }
+  int num_actuators() const { return actuators ? actuators->size() : 0; }
+  int state_size() const { return 2 * num_coordinates() + (compliant_tendons ? 2 : 1) * num_muscles(); }
+  int activation_index(int muscle) const { return 2 * num_coordinates() + muscle; }
+  int fiber_length_index(int muscle) const { return 2 * num_coordinates() + num_muscles() + muscle; }
+};
+
+// Per-thread scratch space; after each evaluation it also holds that evaluation's forces.
+struct MuscleDrivenWorkspace {
+  ForwardDynamicsWorkspace fd;
+  MusclePathGeometry geometry;
+  Eigen::MatrixXd actuator_columns;  // nq x actuators: generalized force per unit control
+  std::vector<Vector6d> external;
+  std::vector<AppliedLoads::Sample> load_samples;
+  std::vector<std::vector<int>> sphere_coordinates;  // coordinates moving each sphere's body
+  Eigen::VectorXd tau;
+  // Outputs of the last evaluation.
+  Eigen::VectorXd muscle_force_N;      // along the tendon
+  Eigen::VectorXd fiber_velocity_m_s;  // compliant tendons: d(fibre length)/dt
+  Eigen::VectorXd actuator_force;      // N or N m
+  std::vector<Eigen::Vector3d> contact_force_N, contact_point_m;  // per sphere, ground frame
+  explicit MuscleDrivenWorkspace(const MuscleDrivenSystem& sys);
+};
+
+// xdot = f(t, x); excitation per muscle (clamped to its control range), control per actuator.
+void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const Eigen::VectorXd& x,
+                               const Eigen::VectorXd& excitation, const Eigen::VectorXd& control,
+                               MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot);
+
+// Velocity (ground frame) of a point fixed on `body`, given the kinematics and motion subspace at q.
+Eigen::Vector3d point_velocity_in_ground(const MotionSubspace& S, const std::vector<int>& body_coordinates,
+                                         const Eigen::Vector3d& point_G_m, const double* u);
+
+}  // namespace cpgait

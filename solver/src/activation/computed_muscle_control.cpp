@@ -1,0 +1,514 @@
+#include "cpgait/activation/computed_muscle_control.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/dynamics/dormand_prince.h"
+#include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/dynamics/muscle_driven_dynamics.h"
+#include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/thelen2003.h"
+#include "cpgait/optim/dual_newton.h"
+
+namespace cpgait {
+
+namespace {
+
+// Desired coordinates, speeds and accelerations between the trajectory's samples (linear: the
+// samples are dense, 1 kHz for OpenSim's RRA output, and the window ends fall on them).
+struct DesiredKinematics {
+  const CoordinateTrajectories& k;
+  void at(double t, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) const {
+    const auto& ts = k.time_s;
+    const int n = static_cast<int>(ts.size());
+    int i = static_cast<int>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1;
+    i = std::clamp(i, 0, n - 2);
+    const double w = std::clamp((t - ts[i]) / (ts[i + 1] - ts[i]), 0.0, 1.0);
+    q = ((1 - w) * k.q.row(i) + w * k.q.row(i + 1)).transpose();
+    u = ((1 - w) * k.qd.row(i) + w * k.qd.row(i + 1)).transpose();
+    a = ((1 - w) * k.qdd.row(i) + w * k.qdd.row(i + 1)).transpose();
+  }
+};
+
+bool is_residual(const Model& model, const ActuatorSpec& spec) {
+  const Joint* root = nullptr;
+  for (const auto& j : model.joints)
+    if (j.parent_body == 0) {
+      root = &j;
+      break;
+    }
+  if (!root) return false;
+  if (spec.kind == ActuatorSpec::Kind::kCoordinate) {
+    const int c = model.coordinate_index(spec.coordinate);
+    return c >= 0 && model.coordinates[c].joint == static_cast<int>(root - model.joints.data());
+  }
+  if (spec.kind == ActuatorSpec::Kind::kPoint) return model.body_index(spec.body) == root->child_body;
+  return model.body_index(spec.body_a) == root->child_body || model.body_index(spec.body_b) == root->child_body;
+}
+
+}  // namespace
+
+ComputedMuscleControlResult computed_muscle_control(const Model& model, const Storage& desired, const AppliedLoads* loads,
+                                                    const ContactSet* contacts, const ResolvedActuators& actuators,
+                                                    const std::vector<CmcJointTask>& tasks,
+                                                    const ControlSetSpec* constraints,
+                                                    const ComputedMuscleControlOptions& options, Progress* progress) {
+  const auto clock_start = std::chrono::steady_clock::now();
+  ComputedMuscleControlResult r;
+  const int nq = model.num_coordinates(), nm = static_cast<int>(model.muscles.size()), na = actuators.size();
+  const int nx = nm + na;
+  r.coordinate_names = coordinate_names(model);
+  for (const auto& m : model.muscles) r.muscle_names.push_back(m.name);
+  for (int j = 0; j < na; ++j) {
+    r.actuator_names.push_back(actuators.spec(j).name);
+    if (is_residual(model, actuators.spec(j))) r.residual_actuators.push_back(j);
+  }
+
+  InverseDynamicsOptions ko;
+  ko.lowpass_cutoff_hz = options.lowpass_cutoff_hz;
+  const CoordinateTrajectories traj = coordinate_trajectories(model, desired, ko);
+  r.summary.warnings = traj.warnings;
+  const DesiredKinematics want{traj};
+  const double data_t0 = traj.time_s.front(), data_t1 = traj.time_s.back();
+  const double T = options.window_s;
+  const double t_first = options.time_range_s ? options.time_range_s->first : data_t0;
+  const double t_last = std::min(options.time_range_s ? options.time_range_s->second : data_t1, data_t1 - T);
+  const double t_begin = std::max(t_first - options.settle_s, data_t0);
+  const double t_out = std::max(t_first, t_begin + options.settle_s);
+  if (!(t_last > t_out + T))
+    throw InputError(desired.name, 0, "time_range",
+                     "CMC needs at least two windows of desired kinematics after the settling time (" +
+                         std::to_string(t_out) + " s to " + std::to_string(t_last) + " s)");
+  if (t_out > t_first + 1e-9)
+    r.summary.warnings.push_back("the desired kinematics start at " + std::to_string(data_t0) +
+                                 " s: results start after the " + std::to_string(options.settle_s) + " s settling time, at " +
+                                 std::to_string(t_out) + " s");
+
+  // Tasks -> tracked coordinates and gains.
+  std::vector<int> tracked;
+  Eigen::VectorXd kp = Eigen::VectorXd::Zero(nq), kv = kp, ka = kp;
+  for (const auto& t : tasks) {
+    if (!t.on) continue;
+    const int c = model.coordinate_index(t.coordinate);
+    if (c < 0) throw InputError(t.file, t.line, "coordinate", "model " + model.name + " has no coordinate " + t.coordinate);
+    if (std::find(tracked.begin(), tracked.end(), c) != tracked.end()) continue;
+    tracked.push_back(c);
+    kp[c] = t.kp;
+    kv[c] = t.kv;
+    ka[c] = t.ka;
+  }
+  if (tracked.empty()) throw InputError(tasks.empty() ? desired.name : tasks.front().file, 0, "tasks", "no task is on");
+  std::sort(tracked.begin(), tracked.end());
+  const bool all_tracked = static_cast<int>(tracked.size()) == nq;
+
+  // Control ranges: the constraints file's, within the muscle's own range.
+  Eigen::VectorXd u_min(nx), u_max(nx);
+  std::vector<bool> steps(nx, true);
+  for (int m = 0; m < nm; ++m) {
+    u_min[m] = model.muscles[m].min_control;
+    u_max[m] = model.muscles[m].max_control;
+    if (const ControlBounds* b = constraints ? constraints->find(model.muscles[m].name) : nullptr) {
+      u_min[m] = b->min;
+      u_max[m] = b->max;
+    }
+  }
+  for (int j = 0; j < na; ++j) {
+    u_min[nm + j] = actuators.spec(j).min_control;
+    u_max[nm + j] = actuators.spec(j).max_control;
+    steps[nm + j] = false;
+    // Only a control named in the file constrains an actuator: the defaults are written for muscles.
+    const ControlBounds* b = constraints ? constraints->find(actuators.spec(j).name) : nullptr;
+    if (b && constraints->defaults && b == &*constraints->defaults) b = nullptr;
+    if (b) {
+      u_min[nm + j] = std::max(u_min[nm + j], b->min);
+      u_max[nm + j] = std::min(u_max[nm + j], b->max);
+      steps[nm + j] = b->use_steps;
+    }
+  }
+
+  MuscleDrivenSystem sys;
+  sys.model = &model;
+  sys.actuators = na ? &actuators : nullptr;
+  sys.loads = loads;
+  sys.contacts = loads ? nullptr : contacts;
+  sys.compliant_tendons = options.compliant_tendons;
+  r.summary.external_forces = loads ? "measured loads" : (sys.contacts ? "contact spheres" : "none");
+  MuscleDrivenWorkspace ws(sys);
+  auto& fd = ws.fd;
+
+  // State.
+  Eigen::VectorXd x(sys.state_size()), xdot(sys.state_size()), x_pred(sys.state_size());
+  Eigen::VectorXd qd_f(nq), ud_f(nq), ad_f(nq), qd_i(nq), ud_i(nq), ad_i(nq);
+  want.at(t_begin, qd_i, ud_i, ad_i);
+  x.head(nq) = qd_i;
+  x.segment(nq, nq) = ud_i;
+  for (int m = 0; m < nm; ++m) x[sys.activation_index(m)] = std::max(u_min[m], 0.02);
+
+  Eigen::VectorXd excitation(nm), control_prev = Eigen::VectorXd::Zero(na), control_new(na), control_now(na);
+  Eigen::MatrixXd A(nq, nx), Minv;
+  Eigen::VectorXd b(nq), lo(nx), hi(nx), sol, lambda, f_opt(nm), f_pass(nm), a_lo(nm), a_hi(nm), qdd_des(nq);
+  // Rigid tendons: fibre length and velocity from the path at the predicted state, where the forces
+  // are solved. Compliant tendons: the path length now and at the window's end.
+  Eigen::VectorXd fiber_length(nm), fiber_speed(nm), path_start(nm), path_end(nm);
+  bool use_fiber_state = false;  // false: rigid-tendon fibres from the path (also the first solve)
+  // The activation whose active force (plus passive) is sol[m] * f_opt[m], within [a_min, a_max].
+  auto activation_for_solution = [&](int m, double a_min, double a_max) {
+    const Muscle& mu = model.muscles[m];
+    const double target = sol[m] * f_opt[m] - f_pass[m];
+    const double l = fiber_length[m], v = fiber_speed[m];
+    double lo_a = a_min, hi_a = a_max;
+    if (thelen2003::active_fiber_force_along_tendon(mu, lo_a, l, v) >= target) return lo_a;
+    if (thelen2003::active_fiber_force_along_tendon(mu, hi_a, l, v) <= target) return hi_a;
+    for (int i = 0; i < 50 && hi_a - lo_a > 1e-9; ++i) {
+      const double mid = 0.5 * (lo_a + hi_a);
+      (thelen2003::active_fiber_force_along_tendon(mu, mid, l, v) < target ? lo_a : hi_a) = mid;
+    }
+    return 0.5 * (lo_a + hi_a);
+  };
+  DualNewtonOptions qp;
+  qp.tolerance = 1e-9;
+
+  // Solves the force distribution for the accelerations qdd_des at state y and time t (OpenSim
+  // evaluates it at the window's end, on the predicted state); activation limits from a_lo/a_hi.
+  // Returns whether the accelerations were met.
+  auto solve_forces = [&](double t, const Eigen::VectorXd& y) {
+    // Kinematics, mass matrix, bias (gravity, Coriolis, external loads), path geometry and actuator
+    // columns from one derivative evaluation; its own muscle and actuator forces are not used.
+    excitation.setZero();
+    control_now.setZero();
+    muscle_driven_derivatives(sys, t, y, excitation, control_now, ws, xdot);
+    for (int m = 0; m < nm; ++m) {
+      const Muscle& mu = model.muscles[m];
+      if (use_fiber_state) {
+        // Compliant tendons, as OpenSim's CMC: each muscle's state integrated over the window with
+        // its path moving to the predicted length, at the lowest and highest excitation.
+        path_end[m] = ws.geometry.length_m[m];
+        f_opt[m] = std::max(thelen2003::rigid_tendon_active_force(mu, 1.0, ws.geometry.length_m[m],
+                                                                  ws.geometry.lengthening_speed_m_s[m]),
+                            1e-3 * mu.max_isometric_force_N);
+        f_pass[m] = 0;
+        const double a0 = x[sys.activation_index(m)], lm0 = x[sys.fiber_length_index(m)];
+        const double f_lo = thelen2003::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_min[m], T).force_N;
+        const double f_hi = thelen2003::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_max[m], T).force_N;
+        lo[m] = std::min(f_lo, f_hi) / f_opt[m];
+        hi[m] = std::max(f_lo, f_hi) / f_opt[m];
+        A.col(m) = ws.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
+        continue;
+      }
+      const auto rf = thelen2003::rigid_tendon_fiber(mu, ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]);
+      fiber_length[m] = rf.fiber_length_m;
+      fiber_speed[m] = rf.fiber_velocity_m_s;
+      const double l = fiber_length[m], v = fiber_speed[m];
+      f_opt[m] = std::max(thelen2003::active_fiber_force_along_tendon(mu, 1.0, l, v), 1e-3 * mu.max_isometric_force_N);
+      f_pass[m] = thelen2003::passive_fiber_force_along_tendon(mu, l);
+      A.col(m) = ws.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
+      // Thelen's force-velocity curve scales with activation, so the force is not linear in it: the
+      // bounds are the forces at the reachable activations themselves.
+      lo[m] = (thelen2003::active_fiber_force_along_tendon(mu, a_lo[m], l, v) + f_pass[m]) / f_opt[m];
+      hi[m] = (thelen2003::active_fiber_force_along_tendon(mu, a_hi[m], l, v) + f_pass[m]) / f_opt[m];
+    }
+    A.rightCols(na) = ws.actuator_columns;
+    lo.tail(na) = u_min.tail(na);
+    hi.tail(na) = u_max.tail(na);
+    // M qdd = A x - bias  with  bias = C + G - J^T f_ext.
+    const Eigen::VectorXd& bias = fd.bias;
+    DualNewtonSummary s;
+    if (all_tracked) {
+      b = fd.M * qdd_des + bias;
+      s = minimize_power_sum(A, b, lo, hi, qp, lambda, sol);
+    } else {
+      Minv = fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
+      const int nt = static_cast<int>(tracked.size());
+      Eigen::MatrixXd At(nt, nx);
+      Eigen::VectorXd bt(nt);
+      const Eigen::MatrixXd MA = Minv * A;
+      const Eigen::VectorXd Mb = Minv * bias;
+      for (int i = 0; i < nt; ++i) {
+        At.row(i) = MA.row(tracked[i]);
+        bt[i] = qdd_des[tracked[i]] + Mb[tracked[i]];
+      }
+      s = minimize_power_sum(At, bt, lo, hi, qp, lambda, sol);
+    }
+    return s.converged;
+  };
+
+  // Compliant tendons: fibre lengths in equilibrium with the current activations and path.
+  auto set_equilibrium_fibers = [&](double t) {
+    if (!sys.compliant_tendons) return;
+    excitation.setZero();
+    control_now.setZero();
+    muscle_driven_derivatives(sys, t, x, excitation, control_now, ws, xdot);
+    for (int m = 0; m < nm; ++m)
+      x[sys.fiber_length_index(m)] = thelen2003::compliant_equilibrium_fiber_length(
+          model.muscles[m], x[sys.activation_index(m)], ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]);
+  };
+
+  // Initial activations: the force distribution at the first instant with the full control range
+  // (no activation-dynamics limit), so the run does not start from an arbitrary state.
+  {
+    want.at(t_begin, qd_f, ud_f, ad_f);
+    qdd_des = ad_f;
+    for (int m = 0; m < nm; ++m) {
+      a_lo[m] = u_min[m];
+      a_hi[m] = u_max[m];
+    }
+    solve_forces(t_begin, x);
+    for (int m = 0; m < nm; ++m) x[sys.activation_index(m)] = activation_for_solution(m, u_min[m], u_max[m]);
+    set_equilibrium_fibers(t_begin);
+    control_prev = sol.tail(na);
+  }
+
+  DormandPrinceOptions io;
+  io.relative_tolerance = options.integrator_tolerance;
+  io.absolute_tolerance = options.integrator_tolerance;
+  io.max_step_s = T;
+  const double dt_out = options.output_interval_s;
+  std::vector<Eigen::VectorXd> rec_x;
+  std::vector<Eigen::VectorXd> rec_fm, rec_fa;
+  std::vector<Eigen::VectorXd> rec_controls, rec_perr;
+
+  const int n_windows = static_cast<int>(std::floor((t_last - t_begin) / T + 1e-9));
+  bool reset_done = t_out <= t_begin + 1e-12;
+  double t = t_begin;
+  auto record = [&](double time) {
+    // Forces at the recorded state: one evaluation with the controls in force at that time.
+    muscle_driven_derivatives(sys, time, x, excitation, control_now, ws, xdot);
+    r.time_s.push_back(time);
+    rec_x.push_back(x);
+    rec_fm.push_back(ws.muscle_force_N);
+    rec_fa.push_back(ws.actuator_force);
+  };
+  for (int w = 0; w < n_windows; ++w) {
+    if (progress && progress->cancelled()) throw std::runtime_error("CMC cancelled");
+    if (!reset_done && t >= t_out - 1e-9) {
+      // OpenSim's reset after the settling time: kinematics back on the desired path.
+      want.at(t, qd_i, ud_i, ad_i);
+      x.head(nq) = qd_i;
+      x.segment(nq, nq) = ud_i;
+      set_equilibrium_fibers(t);
+      reset_done = true;
+    }
+    const double tf = t + T;
+    want.at(tf, qd_f, ud_f, ad_f);
+    want.at(t, qd_i, ud_i, ad_i);
+    // OpenSim's CMC_Joint: errors now, feedforward acceleration at the window's end; the forces are
+    // solved on the state predicted for the window's end (desired path plus today's errors), so
+    // that the forces reached at t + T suit the state there.
+    qdd_des = ad_f;
+    for (int c : tracked)
+      qdd_des[c] = ka[c] * ad_f[c] + kv[c] * (ud_i[c] - x[nq + c]) + kp[c] * (qd_i[c] - x[c]);
+    x_pred = x;
+    x_pred.head(nq) = qd_f - (qd_i - x.head(nq));
+    x_pred.segment(nq, nq) = ud_f - (ud_i - x.segment(nq, nq));
+    for (int m = 0; m < nm; ++m) {
+      const double a = x[sys.activation_index(m)];
+      a_lo[m] = thelen_activation_after(model.muscles[m], a, u_min[m], T);
+      a_hi[m] = thelen_activation_after(model.muscles[m], a, u_max[m], T);
+    }
+    if (sys.compliant_tendons) {
+      Eigen::VectorXd controls_now = control_prev;
+      muscle_driven_derivatives(sys, t, x, excitation, controls_now, ws, xdot);
+      path_start = ws.geometry.length_m;
+      use_fiber_state = true;
+    }
+    const bool feasible = solve_forces(tf, x_pred);
+    ++r.summary.windows;
+    if (!feasible) ++r.summary.windows_infeasible;
+    for (int m = 0; m < nm; ++m) {
+      if (use_fiber_state) {
+        // The excitation whose force at the window's end is the solution's (it rises with excitation).
+        const Muscle& mu = model.muscles[m];
+        const double a0 = x[sys.activation_index(m)], lm0 = x[sys.fiber_length_index(m)];
+        const double target = sol[m] * f_opt[m];
+        double u_lo = u_min[m], u_hi = u_max[m];
+        auto force = [&](double u) { return thelen2003::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u, T).force_N; };
+        if (target <= lo[m] * f_opt[m] + 1e-9) {
+          excitation[m] = u_lo;
+        } else if (target >= hi[m] * f_opt[m] - 1e-9) {
+          excitation[m] = u_hi;
+        } else {
+          for (int i = 0; i < 18; ++i) {
+            const double mid = 0.5 * (u_lo + u_hi);
+            (force(mid) < target ? u_lo : u_hi) = mid;
+          }
+          excitation[m] = 0.5 * (u_lo + u_hi);
+        }
+        continue;
+      }
+      const double a_target = activation_for_solution(m, a_lo[m], a_hi[m]);
+      excitation[m] = thelen_excitation_for(model.muscles[m], x[sys.activation_index(m)], a_target, T, u_min[m], u_max[m]);
+    }
+    control_new = sol.tail(na);
+    if (t >= t_out - 1e-9) {
+      r.window_time_s.push_back(t);
+      Eigen::VectorXd c(nx);
+      c << excitation, control_new;
+      rec_controls.push_back(c);
+      rec_perr.push_back(qd_i - x.head(nq));
+    }
+
+    // Integrate the window, recording every dt_out.
+    const double t_window = t;
+    auto f = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+      const double s = std::clamp((time - t_window) / T, 0.0, 1.0);
+      for (int j = 0; j < na; ++j) control_now[j] = steps[nm + j] ? control_new[j] : control_prev[j] + s * (control_new[j] - control_prev[j]);
+      muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, dy);
+    };
+    const int n_sub = std::max(1, static_cast<int>(std::lround(T / dt_out)));
+    for (int k = 0; k < n_sub; ++k) {
+      const double ta = t_window + T * k / n_sub, tb = t_window + T * (k + 1) / n_sub;
+      if (reset_done && k == 0 && t_window >= t_out - 1e-9) {
+        for (int j = 0; j < na; ++j) control_now[j] = steps[nm + j] ? control_new[j] : control_prev[j];
+        record(ta);
+      }
+      if (options.refresh_actuators) {
+        // Inner loop (see the header): the ideal actuators re-solved for this sub-interval at the
+        // current state, the muscles' forces as they are.
+        Eigen::VectorXd qa(nq), ua(nq), aa(nq), qb(nq), ub(nq), ab(nq);
+        want.at(ta, qa, ua, aa);
+        want.at(tb, qb, ub, ab);
+        Eigen::VectorXd acc = ab;
+        for (int c : tracked) acc[c] = ka[c] * ab[c] + kv[c] * (ua[c] - x[nq + c]) + kp[c] * (qa[c] - x[c]);
+        Eigen::VectorXd zero_controls = Eigen::VectorXd::Zero(na);
+        muscle_driven_derivatives(sys, ta, x, excitation, zero_controls, ws, xdot);
+        const Eigen::VectorXd rhs = fd.M * acc + fd.bias - ws.tau;
+        Eigen::VectorXd lam, c_act;
+        minimize_power_sum(ws.actuator_columns, rhs, u_min.tail(na), u_max.tail(na), qp, lam, c_act);
+        control_prev = c_act;
+        control_new = c_act;
+        for (int j = 0; j < na; ++j) control_now[j] = c_act[j];
+      }
+      const DormandPrinceSummary ds = integrate_dormand_prince(f, ta, tb, x, io);
+      io.initial_step_s = ds.last_step_s;
+      r.summary.integrator_steps += ds.accepted_steps;
+      r.summary.integrator_rejected += ds.rejected_steps;
+      r.summary.evaluations += ds.evaluations;
+      if (!ds.success) throw std::runtime_error("CMC: the forward integration failed at " + std::to_string(ta) + " s: " + ds.message);
+      if (k + 1 < n_sub && reset_done && t_window >= t_out - 1e-9) {
+        const double s = double(k + 1) / n_sub;
+        for (int j = 0; j < na; ++j) control_now[j] = steps[nm + j] ? control_new[j] : control_prev[j] + s * (control_new[j] - control_prev[j]);
+        record(tb);
+      }
+    }
+    control_prev = control_new;
+    t = tf;
+    if (progress) progress->report(double(w + 1) / n_windows, "computed muscle control");
+  }
+  for (int j = 0; j < na; ++j) control_now[j] = control_prev[j];
+  record(t);
+
+  // Tables.
+  const int ns = static_cast<int>(r.time_s.size()), nw = static_cast<int>(r.window_time_s.size());
+  r.q.resize(ns, nq);
+  r.u.resize(ns, nq);
+  r.activation.resize(ns, nm);
+  r.fiber_length_m.resize(ns, nm);
+  r.muscle_force_N.resize(ns, nm);
+  r.actuator_force.resize(ns, na);
+  for (int i = 0; i < ns; ++i) {
+    r.q.row(i) = rec_x[i].head(nq).transpose();
+    r.u.row(i) = rec_x[i].segment(nq, nq).transpose();
+    r.activation.row(i) = rec_x[i].segment(2 * nq, nm).transpose();
+    r.muscle_force_N.row(i) = rec_fm[i].transpose();
+    r.actuator_force.row(i) = rec_fa[i].transpose();
+  }
+  // Fibre lengths (rigid tendon) from the recorded poses.
+  {
+    KinematicsWorkspace<double> kws(model);
+    MotionSubspace S(model);
+    MusclePathGeometry g(model);
+    for (int i = 0; i < ns; ++i) {
+      const Eigen::VectorXd q = r.q.row(i).transpose(), u = r.u.row(i).transpose();
+      forward_kinematics(model, q.data(), kws);
+      motion_subspace(model, q.data(), kws, S);
+      muscle_path_geometry(model, q.data(), u.data(), kws, S, g);
+      for (int m = 0; m < nm; ++m)
+        r.fiber_length_m(i, m) = sys.compliant_tendons ? rec_x[i][sys.fiber_length_index(m)]
+                                                      : thelen2003::rigid_tendon_fiber(model.muscles[m], g.length_m[m], 0).fiber_length_m;
+    }
+  }
+  r.controls.resize(nw, nx);
+  r.position_error.resize(nw, nq);
+  for (int i = 0; i < nw; ++i) {
+    r.controls.row(i) = rec_controls[i].transpose();
+    r.position_error.row(i) = rec_perr[i].transpose();
+  }
+  r.summary.simulated_s = t - t_out;
+  r.summary.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  if (r.summary.windows_infeasible)
+    r.summary.warnings.push_back(std::to_string(r.summary.windows_infeasible) + " of " + std::to_string(r.summary.windows) +
+                                 " windows could not meet the task accelerations within the control constraints "
+                                 "(the closest forces were applied; add reserve actuators or widen their ranges)");
+  return r;
+}
+
+std::vector<std::pair<std::string, double>> ComputedMuscleControlResult::average_residuals() const {
+  std::vector<std::pair<std::string, double>> out;
+  for (int j : residual_actuators) out.emplace_back(actuator_names[j], actuator_force.rows() ? actuator_force.col(j).mean() : 0.0);
+  return out;
+}
+
+Eigen::VectorXd ComputedMuscleControlResult::position_error_rms() const {
+  if (position_error.rows() == 0) return Eigen::VectorXd::Zero(position_error.cols());
+  return (position_error.array().square().colwise().mean()).sqrt().transpose();
+}
+
+std::string ComputedMuscleControlSummary::BriefReport() const {
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "CMC: %d windows (%d infeasible), %.3f s simulated in %.2f s (%.1fx real time), %ld integrator steps "
+                "(%ld rejected, %ld evaluations), external forces: %s",
+                windows, windows_infeasible, simulated_s, solve_seconds, real_time_factor(), integrator_steps,
+                integrator_rejected, evaluations, external_forces.c_str());
+  return buf;
+}
+
+Storage cmc_controls_table(const ComputedMuscleControlResult& r) {
+  std::vector<std::string> names;
+  for (const auto& m : r.muscle_names) names.push_back(m + ".excitation");
+  for (const auto& a : r.actuator_names) names.push_back(a + ".excitation");
+  return make_storage("Controls", names, r.window_time_s, r.controls, false);
+}
+
+Storage cmc_states_table(const ComputedMuscleControlResult& r) {
+  std::vector<std::string> names;
+  const int nq = static_cast<int>(r.coordinate_names.size()), nm = static_cast<int>(r.muscle_names.size());
+  for (const auto& c : r.coordinate_names) names.push_back(c);
+  for (const auto& c : r.coordinate_names) names.push_back(c + "_u");
+  for (const auto& m : r.muscle_names) names.push_back(m + ".activation");
+  for (const auto& m : r.muscle_names) names.push_back(m + ".fiber_length");
+  Eigen::MatrixXd v(r.time_s.size(), 2 * nq + 2 * nm);
+  v << r.q, r.u, r.activation, r.fiber_length_m;
+  return make_storage("States", names, r.time_s, v, false);
+}
+
+Storage cmc_kinematics_q_table(const Model& model, const ComputedMuscleControlResult& r) {
+  return make_storage("Coordinates", r.coordinate_names, r.time_s, coordinates_in_file_units(model, r.q), true);
+}
+
+Storage cmc_position_error_table(const ComputedMuscleControlResult& r) {
+  return make_storage("PositionErrors", r.coordinate_names, r.window_time_s, r.position_error, false);
+}
+
+Storage cmc_actuation_force_table(const ComputedMuscleControlResult& r) {
+  std::vector<std::string> names = r.muscle_names;
+  names.insert(names.end(), r.actuator_names.begin(), r.actuator_names.end());
+  Eigen::MatrixXd v(r.time_s.size(), names.size());
+  v << r.muscle_force_N, r.actuator_force;
+  return make_storage("ActuatorForces", names, r.time_s, v, false);
+}
+
+std::string cmc_average_residuals_text(const ComputedMuscleControlResult& r) {
+  std::string s = "Average Residuals:\n\n";
+  char buf[160];
+  for (const auto& [name, value] : r.average_residuals()) {
+    std::snprintf(buf, sizeof buf, "%s average = %g\n", name.c_str(), value);
+    s.append(buf);
+  }
+  return s;
+}
+
+}  // namespace cpgait

@@ -1,0 +1,93 @@
+#include "cpgait/dynamics/muscle_driven_dynamics.h"
+
+#include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/thelen2003.h"
+
+namespace cpgait {
+
+MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
+    : fd(*sys.model), geometry(*sys.model), actuator_columns(sys.num_coordinates(), sys.num_actuators()),
+      external(sys.model->bodies.size(), Vector6d::Zero()), tau(sys.num_coordinates()),
+      muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
+      actuator_force(sys.num_actuators()) {
+  if (sys.contacts) {
+    for (const auto& s : sys.contacts->spheres) sphere_coordinates.push_back(ancestor_coordinates(*sys.model, s.body));
+    contact_force_N.assign(sys.contacts->spheres.size(), Eigen::Vector3d::Zero());
+    contact_point_m.assign(sys.contacts->spheres.size(), Eigen::Vector3d::Zero());
+  }
+}
+
+Eigen::Vector3d point_velocity_in_ground(const MotionSubspace& S, const std::vector<int>& body_coordinates,
+                                         const Eigen::Vector3d& p, const double* u) {
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  for (int c : body_coordinates) v += (S.columns.col(c).head<3>().cross(p) + S.columns.col(c).tail<3>()) * u[c];
+  return v;
+}
+
+void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
+                               const Eigen::VectorXd& excitation, const Eigen::VectorXd& control,
+                               MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot) {
+  const Model& model = *sys.model;
+  const int nq = sys.num_coordinates(), nm = sys.num_muscles(), na = sys.num_actuators();
+  const double* q = x.data();
+  const double* u = x.data() + nq;
+  auto& fd = ws.fd;
+  forward_kinematics(model, q, fd.kinematics);
+  motion_subspace(model, q, fd.kinematics, fd.S);
+  crba(model, fd.kinematics, fd.S, fd.M);
+
+  // External loads: measured, then contact.
+  for (auto& e : ws.external) e.setZero();
+  if (sys.loads) {
+    sys.loads->forces_at(t, fd.kinematics, ws.load_samples);
+    for (const auto& f : ws.load_samples) ws.external[f.body] += spatial_force(f.force_N, f.point_m, f.torque_Nm);
+  }
+  if (sys.contacts) {
+    const ContactSet& set = *sys.contacts;
+    for (std::size_t i = 0; i < set.spheres.size(); ++i) {
+      const ContactSphere& s = set.spheres[i];
+      const auto& B = fd.kinematics.body_in_ground[s.body];
+      const Eigen::Vector3d centre = B.rotation * s.location_m + B.translation_m;
+      const Eigen::Vector3d v = point_velocity_in_ground(fd.S, ws.sphere_coordinates[i], centre, u);
+      const Eigen::Vector3d f = sphere_contact_force(s, set, centre, v);
+      // Applied at the contact point below the centre (the sphere's lowest point, not below ground).
+      const Eigen::Vector3d point = centre - s.radius_m * Eigen::Vector3d::UnitY();
+      ws.contact_force_N[i] = f;
+      ws.contact_point_m[i] = point;
+      ws.external[s.body] += spatial_force(f, point);
+    }
+  }
+  rnea(model, q, u, fd.zero.data(), ws.external, fd.dynamics, fd.bias.data());  // C + G - J^T f_ext
+
+  // Muscles (rigid tendon) and actuators.
+  ws.tau.setZero();
+  if (nm > 0) {
+    muscle_path_geometry(model, q, u, fd.kinematics, fd.S, ws.geometry);
+    for (int m = 0; m < nm; ++m) {
+      const Muscle& mu = model.muscles[m];
+      const double a = x[sys.activation_index(m)];
+      const double l = ws.geometry.length_m[m], v = ws.geometry.lengthening_speed_m_s[m];
+      if (sys.compliant_tendons) {
+        const auto f = thelen2003::compliant_tendon_fiber(mu, a, l, x[sys.fiber_length_index(m)]);
+        ws.muscle_force_N[m] = f.force_N;
+        ws.fiber_velocity_m_s[m] = f.fiber_velocity_m_s;
+        xdot[sys.fiber_length_index(m)] = f.fiber_velocity_m_s;
+      } else {
+        ws.muscle_force_N[m] =
+            thelen2003::rigid_tendon_active_force(mu, a, l, v) + thelen2003::rigid_tendon_passive_force(mu, l);
+      }
+      xdot[sys.activation_index(m)] = thelen_activation_rate(mu, excitation[m], a);
+    }
+    ws.tau.noalias() += ws.geometry.moment_arm_m.transpose() * ws.muscle_force_N;
+  }
+  if (na > 0) {
+    sys.actuators->generalized_forces(model, fd.kinematics, fd.S, ws.actuator_columns);
+    for (int j = 0; j < na; ++j) ws.actuator_force[j] = control[j] * sys.actuators->spec(j).optimal_force;
+    ws.tau.noalias() += ws.actuator_columns * control;
+  }
+  fd.llt.compute(fd.M);
+  xdot.head(nq) = x.segment(nq, nq);
+  xdot.segment(nq, nq) = fd.llt.solve(ws.tau - fd.bias);
+}
+
+}  // namespace cpgait

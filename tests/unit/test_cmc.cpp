@@ -1,0 +1,213 @@
+// Forward simulation pieces (Dormand-Prince, compliant tendons, the muscle-driven model) and CMC
+// on the fixture walker.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cpgait/activation/computed_muscle_control.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/dynamics/dormand_prince.h"
+#include "cpgait/dynamics/muscle_driven_dynamics.h"
+#include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/thelen2003.h"
+#include "test_support.h"
+
+using namespace cpgait;
+
+namespace {
+const Model& walker() {
+  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  return m;
+}
+}  // namespace
+
+TEST(DormandPrince, HarmonicOscillatorToTolerance) {
+  const OdeFunction f = [](double, const Eigen::VectorXd& x, Eigen::VectorXd& dx) {
+    dx[0] = x[1];
+    dx[1] = -x[0];
+  };
+  for (double tol : {1e-4, 1e-8}) {
+    Eigen::VectorXd x(2);
+    x << 1.0, 0.0;
+    DormandPrinceOptions o;
+    o.relative_tolerance = o.absolute_tolerance = tol;
+    o.max_step_s = 1.0;
+    const auto s = integrate_dormand_prince(f, 0.0, 2 * M_PI, x, o);
+    ASSERT_TRUE(s.success) << s.message;
+    EXPECT_NEAR(x[0], 1.0, 50 * tol);
+    EXPECT_NEAR(x[1], 0.0, 50 * tol);
+    if (tol == 1e-8) {
+      EXPECT_GT(s.accepted_steps, 40);  // the error control did tighten the steps
+    }
+  }
+}
+
+TEST(DormandPrince, StiffDecayStaysStableAndSaysHowManySteps) {
+  // lambda = -1e4: an explicit method must keep h * lambda inside its stability region (~3.3);
+  // the controller finds that without being told.
+  const OdeFunction f = [](double t, const Eigen::VectorXd& x, Eigen::VectorXd& dx) { dx[0] = -1e4 * (x[0] - std::cos(t)); };
+  Eigen::VectorXd x(1);
+  x << 0.0;
+  const auto s = integrate_dormand_prince(f, 0.0, 1.0, x, {});
+  ASSERT_TRUE(s.success);
+  EXPECT_NEAR(x[0], std::cos(1.0), 1e-3);
+  EXPECT_GT(s.accepted_steps, 2000);  // ~1 s / 3.3e-4 s
+}
+
+TEST(Thelen2003, CompliantEquilibriumBalancesTendonAndFibre) {
+  const Muscle& mu = walker().muscles[0];
+  const double L = mu.tendon_slack_length_m + mu.optimal_fiber_length_m * 1.05;
+  for (double a : {0.02, 0.5, 1.0}) {
+    const double lm = thelen2003::compliant_equilibrium_fiber_length(mu, a, L, 0.0);
+    const auto f = thelen2003::compliant_tendon_fiber(mu, a, L, lm);
+    // At equilibrium the fibre does not move, and the tendon carries what the fibre pulls.
+    EXPECT_NEAR(f.fiber_velocity_m_s, 0.0, 1e-6 * mu.optimal_fiber_length_m * mu.max_contraction_velocity) << a;
+    const double fibre = thelen2003::active_fiber_force_along_tendon(mu, a, lm, 0.0) +
+                         thelen2003::passive_fiber_force_along_tendon(mu, lm);
+    EXPECT_NEAR(f.force_N, fibre, 1e-6 * mu.max_isometric_force_N) << a;
+    // The tendon stretches under load, so the fibre is shorter than with a rigid tendon.
+    EXPECT_LT(lm, thelen2003::rigid_tendon_fiber(mu, L, 0).fiber_length_m) << a;
+  }
+  // More activation, more force at the same length; a fibre longer than equilibrium shortens.
+  const double lm = thelen2003::compliant_equilibrium_fiber_length(mu, 0.5, L, 0.0);
+  EXPECT_GT(thelen2003::compliant_tendon_fiber(mu, 1.0, L, lm).force_N, 0.0);
+  EXPECT_LT(thelen2003::compliant_tendon_fiber(mu, 1.0, L, lm).fiber_velocity_m_s, 0.0);  // more activation: shortens
+  EXPECT_LT(thelen2003::compliant_tendon_fiber(mu, 0.5, L, lm * 1.02).fiber_velocity_m_s, 0.0);
+  EXPECT_GT(thelen2003::compliant_tendon_fiber(mu, 0.5, L, lm * 0.98).fiber_velocity_m_s, 0.0);
+}
+
+TEST(ActivationDynamics, ExcitationForATargetActivation) {
+  const Muscle& mu = walker().muscles[0];
+  for (double target : {0.095, 0.2, 0.4}) {  // reachable from 0.1 within 10 ms
+    const double u = thelen_excitation_for(mu, 0.1, target, 0.01, 0.02, 1.0);
+    EXPECT_NEAR(thelen_activation_after(mu, 0.1, u, 0.01), target, 1e-5) << target;
+  }
+  // Out of reach within the window: the bound is returned.
+  EXPECT_DOUBLE_EQ(thelen_excitation_for(mu, 0.1, 0.99, 0.01, 0.02, 1.0), 1.0);
+}
+
+TEST(MuscleDrivenDynamics, WithoutMusclesItIsForwardDynamics) {
+  const Model& m = walker();
+  Model bare = m;
+  bare.muscles.clear();
+  MuscleDrivenSystem sys;
+  sys.model = &bare;
+  MuscleDrivenWorkspace ws(sys);
+  std::mt19937 rng(3);
+  const int nq = m.num_coordinates();
+  Eigen::VectorXd x(sys.state_size()), dx(sys.state_size());
+  x.head(nq) = refdata::random_pose(m, rng, 1.0);
+  x.tail(nq) = Eigen::VectorXd::Random(nq);
+  Eigen::VectorXd none(0);
+  muscle_driven_derivatives(sys, 0.0, x, none, none, ws, dx);
+  ForwardDynamicsWorkspace fws(bare);
+  Eigen::VectorXd qdd(nq), tau = Eigen::VectorXd::Zero(nq);
+  forward_dynamics(bare, x.data(), x.data() + nq, tau.data(), {}, fws, qdd.data());
+  EXPECT_LT((dx.tail(nq) - qdd).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((dx.head(nq) - x.tail(nq)).cwiseAbs().maxCoeff(), 1e-15);
+}
+
+TEST(MuscleDrivenDynamics, MuscleForceActsThroughItsMomentArms) {
+  const Model& m = walker();
+  MuscleDrivenSystem sys;
+  sys.model = &m;
+  sys.compliant_tendons = false;
+  MuscleDrivenWorkspace ws(sys);
+  const int nq = m.num_coordinates(), nm = sys.num_muscles();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), dx(sys.state_size()), dx_off(sys.state_size());
+  x.head(nq) = m.default_coordinates();
+  Eigen::VectorXd u = Eigen::VectorXd::Constant(nm, 0.5), none(0);
+  x.tail(nm).setConstant(0.01);
+  muscle_driven_derivatives(sys, 0.0, x, u, none, ws, dx_off);
+  x[sys.activation_index(0)] = 1.0;
+  muscle_driven_derivatives(sys, 0.0, x, u, none, ws, dx);
+  // The extra generalized force of muscle 0 is r^T dF; M times the change in accelerations equals it.
+  const Eigen::VectorXd dqdd = dx.segment(nq, nq) - dx_off.segment(nq, nq);
+  const double dF = thelen2003::rigid_tendon_active_force(m.muscles[0], 1.0, ws.geometry.length_m[0], 0.0) -
+                    thelen2003::rigid_tendon_active_force(m.muscles[0], 0.01, ws.geometry.length_m[0], 0.0);
+  EXPECT_LT((ws.fd.M * dqdd - ws.geometry.moment_arm_m.row(0).transpose() * dF).cwiseAbs().maxCoeff(), 1e-8);
+  // Activation rises toward the excitation.
+  EXPECT_GT(dx_off[sys.activation_index(1)], 0.0);
+  EXPECT_LT(dx[sys.activation_index(0)], 0.0);
+}
+
+namespace {
+struct WalkerCmc {
+  Storage kinematics;
+  std::vector<ActuatorSpec> specs;
+  std::vector<CmcJointTask> tasks;
+};
+WalkerCmc walker_cmc_inputs() {
+  const Model& m = walker();
+  fixtures::SyntheticTrialOptions o;
+  o.rate_hz = 200;
+  o.duration_s = 1.2;
+  const auto trial = fixtures::synthesize_trial(m, o);
+  WalkerCmc in;
+  std::vector<double> t(trial.q.rows());
+  for (int i = 0; i < trial.q.rows(); ++i) t[i] = i / o.rate_hz;
+  in.kinematics = make_storage("walker.sto", coordinate_names(m), t, trial.q, false);
+  for (const auto& c : m.coordinates) {
+    ActuatorSpec a;
+    a.name = c.name + "_reserve";
+    a.coordinate = c.name;
+    a.optimal_force = c.joint == 0 ? 1000.0 : 10.0;  // residuals carry the body: no ground forces here
+    in.specs.push_back(a);
+    CmcJointTask task;
+    task.name = task.coordinate = c.name;
+    in.tasks.push_back(task);
+  }
+  return in;
+}
+}  // namespace
+
+TEST(ComputedMuscleControl, TracksSyntheticWalkerKinematics) {
+  const Model& m = walker();
+  const WalkerCmc in = walker_cmc_inputs();
+  const ResolvedActuators actuators(m, in.specs);
+  for (bool refresh : {true, false}) {
+    ComputedMuscleControlOptions o;
+    o.time_range_s = std::make_pair(0.1, 1.0);
+    o.refresh_actuators = refresh;
+    const auto r = computed_muscle_control(m, in.kinematics, nullptr, nullptr, actuators, in.tasks, nullptr, o);
+    EXPECT_EQ(r.summary.windows_infeasible, 0);
+    EXPECT_EQ(r.summary.external_forces, "none");
+    const Eigen::VectorXd rms = r.position_error_rms();
+    for (int c = 0; c < m.num_coordinates(); ++c) {
+      const double limit = m.coordinates[c].is_angle() ? 0.5 * M_PI / 180 : 0.002;
+      EXPECT_LT(rms[c], limit) << m.coordinates[c].name << (refresh ? " (refresh)" : " (window)");
+    }
+    // The muscles do work (the knee extensors, at least, well above their floor), and every
+    // excitation stays inside its range.
+    EXPECT_GT(r.activation.col(0).maxCoeff(), 0.1) << m.muscles[0].name;
+    for (int k = 0; k < static_cast<int>(m.muscles.size()); ++k) {
+      EXPECT_GE(r.controls.col(k).minCoeff(), m.muscles[k].min_control - 1e-12);
+      EXPECT_LE(r.controls.col(k).maxCoeff(), m.muscles[k].max_control + 1e-12);
+    }
+    EXPECT_NEAR(r.time_s.front(), 0.1, 1e-9);
+    EXPECT_NEAR(r.time_s.back(), 1.0, 1e-6);
+    EXPECT_EQ(cmc_states_table(r).labels.size(), 1 + 2 * m.num_coordinates() + 2 * m.muscles.size());
+    EXPECT_NE(cmc_average_residuals_text(r).find("pelvis_tx_reserve average"), std::string::npos);
+  }
+}
+
+TEST(ComputedMuscleControl, RefusesTooLittleDataAndUnknownTasks) {
+  const Model& m = walker();
+  WalkerCmc in = walker_cmc_inputs();
+  const ResolvedActuators actuators(m, in.specs);
+  ComputedMuscleControlOptions o;
+  o.time_range_s = std::make_pair(1.18, 1.2);  // less than two windows before the data end
+  EXPECT_THROW(computed_muscle_control(m, in.kinematics, nullptr, nullptr, actuators, in.tasks, nullptr, o), InputError);
+  in.tasks[0].coordinate = "no_such_coordinate";
+  in.tasks[0].file = "tasks.xml";
+  in.tasks[0].line = 7;
+  try {
+    computed_muscle_control(m, in.kinematics, nullptr, nullptr, actuators, in.tasks, nullptr, {});
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("tasks.xml"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("no_such_coordinate"), std::string::npos);
+  }
+}
