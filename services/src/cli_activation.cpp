@@ -151,7 +151,8 @@ void run_cmc_setup(const std::string& setup_path, const std::string& results_ove
   in.options.time_range_s = std::make_pair(s.initial_time_s, s.final_time_s);
   in.options.window_s = s.cmc_time_window_s;
   in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
-  in.options.integrator_tolerance = s.integrator_error_tolerance;
+  // The setup's integrator_error_tolerance is OpenSim's integrator's (another method and norm); the
+  // default of ComputedMuscleControlOptions is used instead.
   if (!s.use_fast_target) std::fprintf(stderr, "warning: the slow optimization target is not implemented; using the fast target\n");
   in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
   in.name = s.name.empty() ? "cmc" : s.name;
@@ -206,6 +207,10 @@ void add_activation_commands(CLI::App& app) {
   cmc->add_option("--loads", c->loads, "ExternalLoads .xml (measured GRF)")->check(CLI::ExistingFile);
   cmc->add_option("--grf", c->grf, "GRF data .mot (default: the datafile the loads name)")->check(CLI::ExistingFile);
   cmc->add_option("--contacts", c->contacts, "contact spheres JSON (cpgait.contact/1) used without --loads")->check(CLI::ExistingFile);
+  cmc->add_option("--integrator", c->options.integrator, "rosenbrock (ROS2, stiff muscles implicit) or dopri (explicit 5(4))")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, CmcIntegrator>{{"rosenbrock", CmcIntegrator::kRosenbrockW},
+                                                                                {"dopri", CmcIntegrator::kDormandPrince}}))
+      ->capture_default_str();
   cmc->add_flag("--refresh-actuators", c->options.refresh_actuators,
                 "also re-solve residual and reserve actuators every output interval (default: once per window, as OpenSim)");
   cmc->add_flag("!--rigid-tendons", c->options.compliant_tendons, "rigid tendons (default: compliant, as OpenSim's Thelen2003Muscle)");

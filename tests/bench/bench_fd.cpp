@@ -4,7 +4,9 @@
 #include <filesystem>
 #include <random>
 
+#include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/dynamics/forward_dynamics.h"
+#include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/model/osim_reader.h"
 
 using namespace cpgait;
@@ -30,3 +32,60 @@ static void BM_ForwardDynamicsGait2392(benchmark::State& state) {
   state.counters["evaluations/s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_ForwardDynamicsGait2392)->Unit(benchmark::kMicrosecond)->MinTime(1.0);
+
+// The muscle-driven model (92 compliant Thelen muscles, CMC's actuators, GRF): state derivatives per
+// second, the integrators' unit of work.
+static void BM_MuscleDrivenDerivativesGait2392(benchmark::State& state) {
+  const std::string pl = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
+  if (!std::filesystem::exists(pl + "gait2392_CMC_Actuators.xml")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
+    return;
+  }
+  const Model m = read_osim(pl + "OutputReference/subject01_simbody_adjusted.osim").model;
+  const ResolvedActuators acts(m, read_actuators(pl + "gait2392_CMC_Actuators.xml"));
+  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  MuscleDrivenSystem sys;
+  sys.model = &m;
+  sys.actuators = &acts;
+  sys.loads = &loads;
+  MuscleDrivenWorkspace ws(sys);
+  const int nq = m.num_coordinates(), nm = sys.num_muscles();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), dx(sys.state_size());
+  x.head(nq) = m.default_coordinates();
+  for (int k = 0; k < nm; ++k) {
+    x[sys.activation_index(k)] = 0.2;
+    x[sys.fiber_length_index(k)] = m.muscles[k].optimal_fiber_length_m;
+  }
+  const Eigen::VectorXd u = Eigen::VectorXd::Constant(nm, 0.3), c = Eigen::VectorXd::Zero(acts.size());
+  for (auto _ : state) {
+    muscle_driven_derivatives(sys, 1.0, x, u, c, ws, dx);
+    benchmark::DoNotOptimize(dx.data());
+  }
+  state.counters["evaluations/s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_MuscleDrivenDerivativesGait2392)->Unit(benchmark::kMicrosecond)->MinTime(1.0);
+
+// CMC on OpenSim's subject01 setup (0.5-2.0 s, measured loads), one thread: simulated seconds per
+// wall-clock second (the target: faster than real time).
+static void BM_CmcSubject01(benchmark::State& state) {
+  const std::string pl = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
+  if (!std::filesystem::exists(pl + "gait2392_CMC_Tasks.xml")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
+    return;
+  }
+  const Model m = read_osim(pl + "OutputReference/subject01_simbody_adjusted.osim").model;
+  const ResolvedActuators acts(m, read_actuators(pl + "gait2392_CMC_Actuators.xml"));
+  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  const auto tasks = read_cmc_tasks(pl + "gait2392_CMC_Tasks.xml");
+  const auto constraints = read_control_set(pl + "gait2392_CMC_ControlConstraints.xml");
+  const Storage kin = read_storage(pl + "OutputReference/ResultsRRA/subject01_walk1_RRA_Kinematics_q.sto");
+  ComputedMuscleControlOptions o;
+  o.time_range_s = std::make_pair(0.5, 2.0);
+  double simulated = 0;
+  for (auto _ : state) {
+    const auto r = computed_muscle_control(m, kin, &loads, nullptr, acts, tasks, &constraints, o);
+    simulated += r.summary.simulated_s;
+  }
+  state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CmcSubject01)->Unit(benchmark::kSecond)->Iterations(2);

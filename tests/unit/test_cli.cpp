@@ -87,6 +87,33 @@ TEST(CliReference, RunToolRunsOpenSimsIkSetup) {
   fs::remove_all(dir);
 }
 
+TEST(CliReference, RunToolRunsOpenSimsCmcSetup) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  REQUIRE_REFERENCE(pl + "subject01_Setup_CMC.xml");
+  const std::string dir = cpgait::refdata::temp_dir("cli_cmc");
+  const CliRun r = run("run-tool " + pl + "subject01_Setup_CMC.xml --results " + dir);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("external forces: measured loads"), std::string::npos) << r.output;
+  for (const char* f : {"_controls.sto", "_states.sto", "_Kinematics_q.sto", "_pErr.sto", "_Actuation_force.sto", "_avgResiduals.txt"})
+    EXPECT_TRUE(fs::exists(dir + "/subject01_walk1" + f)) << f;
+  const cpgait::Storage q = cpgait::read_storage(dir + "/subject01_walk1_Kinematics_q.sto");
+  EXPECT_EQ(q.num_columns(), 24);
+  EXPECT_NEAR(q.time()[0], 0.53, 1e-9);  // after OpenSim's 0.03 s settling
+  EXPECT_NEAR(q.time()[q.num_rows() - 1], 1.99, 1e-6);  // the last full window before the data end
+  const cpgait::Storage c = cpgait::read_storage(dir + "/subject01_walk1_controls.sto");
+  EXPECT_GE(c.column("soleus_r.excitation"), 1);
+  EXPECT_GE(c.column("FX.excitation"), 1);
+  // A task set naming a coordinate the model lacks: the file, line and field.
+  std::ofstream(dir + "/tasks.xml") << "<OpenSimDocument><CMC_TaskSet><objects>\n<CMC_Joint name=\"x\">\n"
+                                       "<coordinate>no_such</coordinate></CMC_Joint></objects></CMC_TaskSet></OpenSimDocument>";
+  const CliRun bad = run("cmc --model " + pl + "OutputReference/subject01_simbody_adjusted.osim --kinematics " + pl +
+                         "OutputReference/ResultsRRA/subject01_walk1_RRA_Kinematics_q.sto --tasks " + dir + "/tasks.xml -o " + dir);
+  EXPECT_EQ(bad.status, 2) << bad.output;
+  EXPECT_NE(bad.output.find("tasks.xml:2"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("no_such"), std::string::npos) << bad.output;
+  fs::remove_all(dir);
+}
+
 TEST(CliReference, IdAndSoFromTheCommandLine) {
   const std::string pl = cpgait::refdata::gait2392("pipeline/");
   REQUIRE_REFERENCE(pl + "subject01_walk1_grf.mot");

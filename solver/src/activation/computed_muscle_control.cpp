@@ -4,11 +4,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/dormand_prince.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
+#include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/thelen2003.h"
 #include "cpgait/optim/dual_newton.h"
@@ -75,10 +77,10 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   const double data_t0 = traj.time_s.front(), data_t1 = traj.time_s.back();
   const double T = options.window_s;
   const double t_first = options.time_range_s ? options.time_range_s->first : data_t0;
-  const double t_last = std::min(options.time_range_s ? options.time_range_s->second : data_t1, data_t1 - T);
+  const double t_last = std::min(options.time_range_s ? options.time_range_s->second : data_t1, data_t1);  // windows end by here
   const double t_begin = std::max(t_first - options.settle_s, data_t0);
   const double t_out = std::max(t_first, t_begin + options.settle_s);
-  if (!(t_last > t_out + T))
+  if (!(t_last >= t_out + 2 * T - 1e-9))
     throw InputError(desired.name, 0, "time_range",
                      "CMC needs at least two windows of desired kinematics after the settling time (" +
                          std::to_string(t_out) + " s to " + std::to_string(t_last) + " s)");
@@ -129,11 +131,37 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     }
   }
 
+  // Contact spheres without measured loads: the ground is placed under the recorded feet, so that
+  // the lowest sphere over the trial presses in as far as half the body weight presses one sphere.
+  ContactSet ground;
+  if (!loads && contacts) {
+    ground = *contacts;
+    if (options.place_ground_under_feet && !ground.spheres.empty()) {
+      KinematicsWorkspace<double> kws(model);
+      double lowest = 1e30;
+      for (int i = 0; i < static_cast<int>(traj.time_s.size()); ++i) {
+        if (traj.time_s[i] < t_begin - 1e-9 || traj.time_s[i] > t_last + 1e-9) continue;
+        const Eigen::VectorXd q = traj.q.row(i).transpose();
+        forward_kinematics(model, q.data(), kws);
+        for (const auto& sp : ground.spheres) {
+          const auto& B = kws.body_in_ground[sp.body];
+          lowest = std::min(lowest, (B.rotation * sp.location_m + B.translation_m).y() - sp.radius_m);
+        }
+      }
+      const double weight_N = model.total_mass_kg() * model.gravity_m_s2.norm();
+      const double press_m = std::pow(0.5 * weight_N / ground.spheres.front().stiffness, 2.0 / 3.0);
+      ground.ground_height_m = lowest + press_m;
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "contact spheres: the ground placed at y = %.4f m, %.1f mm above the lowest sphere's bottom in the desired kinematics",
+                    ground.ground_height_m, press_m * 1000);
+      r.summary.warnings.emplace_back(buf);
+    }
+  }
   MuscleDrivenSystem sys;
   sys.model = &model;
   sys.actuators = na ? &actuators : nullptr;
   sys.loads = loads;
-  sys.contacts = loads ? nullptr : contacts;
+  sys.contacts = loads || !contacts ? nullptr : &ground;
   sys.compliant_tendons = options.compliant_tendons;
   r.summary.external_forces = loads ? "measured loads" : (sys.contacts ? "contact spheres" : "none");
   MuscleDrivenWorkspace ws(sys);
@@ -219,6 +247,17 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     if (all_tracked) {
       b = fd.M * qdd_des + bias;
       s = minimize_power_sum(A, b, lo, hi, qp, lambda, sol);
+      if (!s.converged && !r.residual_actuators.empty()) {
+        // Out of reach within the constraints (typically residuals too weak for a model on contact
+        // spheres): the residual actuators' bounds are lifted for this window, and counted.
+        for (int j : r.residual_actuators) {
+          lo[nm + j] = -std::numeric_limits<double>::infinity();
+          hi[nm + j] = std::numeric_limits<double>::infinity();
+        }
+        lambda.resize(0);
+        s = minimize_power_sum(A, b, lo, hi, qp, lambda, sol);
+        if (s.converged) ++r.summary.windows_residuals_unbounded;
+      }
     } else {
       Minv = fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
       const int nt = static_cast<int>(tracked.size());
@@ -256,6 +295,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       a_hi[m] = u_max[m];
     }
     solve_forces(t_begin, x);
+    r.summary.windows_residuals_unbounded = 0;  // the initial distribution is not a window
     for (int m = 0; m < nm; ++m) x[sys.activation_index(m)] = activation_for_solution(m, u_min[m], u_max[m]);
     set_equilibrium_fibers(t_begin);
     control_prev = sol.tail(na);
@@ -265,6 +305,10 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   io.relative_tolerance = options.integrator_tolerance;
   io.absolute_tolerance = options.integrator_tolerance;
   io.max_step_s = T;
+  RosenbrockOptions ro;
+  ro.relative_tolerance = ro.absolute_tolerance = options.integrator_tolerance;
+  ro.max_step_s = T;
+  MuscleDrivenJacobian jac;
   const double dt_out = options.output_interval_s;
   std::vector<Eigen::VectorXd> rec_x;
   std::vector<Eigen::VectorXd> rec_fm, rec_fa;
@@ -330,11 +374,27 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         } else if (target >= hi[m] * f_opt[m] - 1e-9) {
           excitation[m] = u_hi;
         } else {
-          for (int i = 0; i < 18; ++i) {
-            const double mid = 0.5 * (u_lo + u_hi);
-            (force(mid) < target ? u_lo : u_hi) = mid;
+          // Illinois (regula falsi with the stale end's value halved): the force is smooth and
+          // monotonic in the excitation, so this converges in a handful of predictions.
+          double f_lo = lo[m] * f_opt[m] - target, f_hi = hi[m] * f_opt[m] - target, u = u_lo;
+          int side = 0;
+          for (int i = 0; i < 30; ++i) {
+            u = (u_lo * f_hi - u_hi * f_lo) / (f_hi - f_lo);
+            const double fu = force(u) - target;
+            if (std::abs(fu) < 1e-4 * mu.max_isometric_force_N || u_hi - u_lo < 1e-7) break;
+            if ((fu < 0) == (f_lo < 0)) {
+              u_lo = u;
+              f_lo = fu;
+              if (side == -1) f_hi *= 0.5;
+              side = -1;
+            } else {
+              u_hi = u;
+              f_hi = fu;
+              if (side == 1) f_lo *= 0.5;
+              side = 1;
+            }
           }
-          excitation[m] = 0.5 * (u_lo + u_hi);
+          excitation[m] = u;
         }
         continue;
       }
@@ -352,10 +412,20 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
 
     // Integrate the window, recording every dt_out.
     const double t_window = t;
-    auto f = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+    auto controls_at = [&](double time) {
       const double s = std::clamp((time - t_window) / T, 0.0, 1.0);
       for (int j = 0; j < na; ++j) control_now[j] = steps[nm + j] ? control_new[j] : control_prev[j] + s * (control_new[j] - control_prev[j]);
+    };
+    auto f = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+      controls_at(time);
       muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, dy);
+    };
+    auto prepare = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
+      controls_at(time);
+      muscle_driven_prepare(sys, time, y, excitation, control_now, ws, jac, f0);
+    };
+    auto w_solve = [&](double gamma_h, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) {
+      muscle_driven_w_solve(sys, jac, gamma_h, rhs, k);
     };
     const int n_sub = std::max(1, static_cast<int>(std::lround(T / dt_out)));
     for (int k = 0; k < n_sub; ++k) {
@@ -381,8 +451,10 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         control_new = c_act;
         for (int j = 0; j < na; ++j) control_now[j] = c_act[j];
       }
-      const DormandPrinceSummary ds = integrate_dormand_prince(f, ta, tb, x, io);
-      io.initial_step_s = ds.last_step_s;
+      const DormandPrinceSummary ds = options.integrator == CmcIntegrator::kRosenbrockW
+                                          ? integrate_ros2(f, prepare, w_solve, ta, tb, x, ro)
+                                          : integrate_dormand_prince(f, ta, tb, x, io);
+      io.initial_step_s = ro.initial_step_s = ds.last_step_s;
       r.summary.integrator_steps += ds.accepted_steps;
       r.summary.integrator_rejected += ds.rejected_steps;
       r.summary.evaluations += ds.evaluations;
@@ -438,6 +510,9 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   }
   r.summary.simulated_s = t - t_out;
   r.summary.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  if (r.summary.windows_residuals_unbounded)
+    r.summary.warnings.push_back(std::to_string(r.summary.windows_residuals_unbounded) + " of " + std::to_string(r.summary.windows) +
+                                 " windows needed the residual actuators beyond their control constraints");
   if (r.summary.windows_infeasible)
     r.summary.warnings.push_back(std::to_string(r.summary.windows_infeasible) + " of " + std::to_string(r.summary.windows) +
                                  " windows could not meet the task accelerations within the control constraints "
@@ -459,9 +534,9 @@ Eigen::VectorXd ComputedMuscleControlResult::position_error_rms() const {
 std::string ComputedMuscleControlSummary::BriefReport() const {
   char buf[400];
   std::snprintf(buf, sizeof buf,
-                "CMC: %d windows (%d infeasible), %.3f s simulated in %.2f s (%.1fx real time), %ld integrator steps "
-                "(%ld rejected, %ld evaluations), external forces: %s",
-                windows, windows_infeasible, simulated_s, solve_seconds, real_time_factor(), integrator_steps,
+                "CMC: %d windows (%d infeasible, %d with residuals beyond their constraints), %.3f s simulated in %.2f s "
+                "(%.1fx real time), %ld integrator steps (%ld rejected, %ld evaluations), external forces: %s",
+                windows, windows_infeasible, windows_residuals_unbounded, simulated_s, solve_seconds, real_time_factor(), integrator_steps,
                 integrator_rejected, evaluations, external_forces.c_str());
   return buf;
 }

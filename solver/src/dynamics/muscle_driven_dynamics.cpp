@@ -3,6 +3,8 @@
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/thelen2003.h"
 
+#include <algorithm>
+
 namespace cpgait {
 
 MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
@@ -88,6 +90,70 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   fd.llt.compute(fd.M);
   xdot.head(nq) = x.segment(nq, nq);
   xdot.segment(nq, nq) = fd.llt.solve(ws.tau - fd.bias);
+}
+
+void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
+                           const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
+                           MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot) {
+  muscle_driven_derivatives(sys, t, x, excitation, control, ws, xdot);
+  const Model& model = *sys.model;
+  const int nm = sys.num_muscles();
+  jac.M = ws.fd.M;
+  jac.moment_arm = ws.geometry.moment_arm_m;
+  jac.da_da.resize(nm);
+  jac.dl_dl.setZero(nm);
+  jac.dl_da.setZero(nm);
+  jac.dF_dl.setZero(nm);
+  jac.dF_da.setZero(nm);
+  jac.dF_dV.setZero(nm);
+  for (int m = 0; m < nm; ++m) {
+    const Muscle& mu = model.muscles[m];
+    const double a = x[sys.activation_index(m)];
+    const double L = ws.geometry.length_m[m], V = ws.geometry.lengthening_speed_m_s[m];
+    const double da = 1e-6;
+    jac.da_da[m] = (thelen_activation_rate(mu, excitation[m], a + da) - xdot[sys.activation_index(m)]) / da;
+    if (sys.compliant_tendons) {
+      const double lm = x[sys.fiber_length_index(m)], dl = 1e-7 * mu.optimal_fiber_length_m;
+      const auto f0 = thelen2003::compliant_tendon_fiber(mu, a, L, lm);
+      const auto fl = thelen2003::compliant_tendon_fiber(mu, a, L, lm + dl);
+      const auto fa = thelen2003::compliant_tendon_fiber(mu, a + da, L, lm);
+      jac.dl_dl[m] = (fl.fiber_velocity_m_s - f0.fiber_velocity_m_s) / dl;
+      jac.dl_da[m] = (fa.fiber_velocity_m_s - f0.fiber_velocity_m_s) / da;
+      jac.dF_dl[m] = (fl.force_N - f0.force_N) / dl;
+    } else {
+      const double F = thelen2003::rigid_tendon_active_force(mu, a, L, V);
+      const double dV = 1e-6 * mu.optimal_fiber_length_m * mu.max_contraction_velocity;
+      jac.dF_da[m] = (thelen2003::rigid_tendon_active_force(mu, a + da, L, V) - F) / da;
+      jac.dF_dV[m] = std::max(0.0, (thelen2003::rigid_tendon_active_force(mu, a, L, V + dV) - F) / dV);
+    }
+  }
+}
+
+void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& jac, double gh, const Eigen::VectorXd& rhs,
+                           Eigen::VectorXd& k) {
+  const int nq = sys.num_coordinates(), nm = sys.num_muscles();
+  k.resize(rhs.size());
+  jac.g.setZero(nm);
+  for (int m = 0; m < nm; ++m) {
+    const int ia = sys.activation_index(m);
+    k[ia] = rhs[ia] / (1.0 - gh * jac.da_da[m]);
+    if (sys.compliant_tendons) {
+      const int il = sys.fiber_length_index(m);
+      k[il] = (rhs[il] + gh * jac.dl_da[m] * k[ia]) / (1.0 - gh * jac.dl_dl[m]);
+      jac.g[m] = jac.dF_dl[m] * k[il];
+    } else {
+      jac.g[m] = jac.dF_da[m] * k[ia];
+    }
+  }
+  // (M + gh R^T D R) k_u = M rhs_u + gh R^T g
+  jac.W = jac.M;
+  if (!sys.compliant_tendons && nm > 0)
+    jac.W.noalias() += gh * jac.moment_arm.transpose() * jac.dF_dV.asDiagonal() * jac.moment_arm;
+  jac.llt.compute(jac.W);
+  Eigen::VectorXd b = jac.M * rhs.segment(nq, nq);
+  if (nm > 0) b.noalias() += gh * jac.moment_arm.transpose() * jac.g;
+  k.segment(nq, nq) = jac.llt.solve(b);
+  k.head(nq) = rhs.head(nq) + gh * k.segment(nq, nq);
 }
 
 }  // namespace cpgait

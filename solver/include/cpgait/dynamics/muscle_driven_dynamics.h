@@ -60,6 +60,27 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const 
                                const Eigen::VectorXd& excitation, const Eigen::VectorXd& control,
                                MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot);
 
+// The Jacobian approximation integrate_ros2 uses: the stiff parts only. Per muscle, the activation
+// and fibre-length rates against their own states (diagonal), the muscle force against fibre length
+// (compliant) or against activation and path speed (rigid: the force-velocity curve damps the
+// joints, -R^T diag(dF/dV) R), and dq/dt = u. Joint stiffness from the ground (GRF moving with
+// the body, contact) is left explicit: the W-method stays second order without it.
+struct MuscleDrivenJacobian {
+  Eigen::MatrixXd M, moment_arm;  // at the step's start
+  Eigen::VectorXd da_da, dl_dl, dl_da, dF_dl, dF_da, dF_dV;
+  Eigen::MatrixXd W;              // scratch: M + gamma h R^T diag(dF/dV) R
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::VectorXd g;
+};
+
+// xdot at (t, x) and the Jacobian approximation there.
+void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t_s, const Eigen::VectorXd& x,
+                           const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
+                           MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot);
+// k = (I - gamma_h J)^-1 rhs with the prepared J (block triangular: activation, fibre, speed, position).
+void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& jac, double gamma_h,
+                           const Eigen::VectorXd& rhs, Eigen::VectorXd& k);
+
 // Velocity (ground frame) of a point fixed on `body`, given the kinematics and motion subspace at q.
 Eigen::Vector3d point_velocity_in_ground(const MotionSubspace& S, const std::vector<int>& body_coordinates,
                                          const Eigen::Vector3d& point_G_m, const double* u);
