@@ -298,7 +298,7 @@ TEST(ComputedMuscleControl, RefusesTooLittleDataAndUnknownTasks) {
   WalkerCmc in = walker_cmc_inputs();
   const ResolvedActuators actuators(m, in.specs);
   ComputedMuscleControlOptions o;
-  o.time_range_s = std::make_pair(1.18, 1.2);  // less than two windows before the data end
+  o.time_range_s = std::make_pair(1.19, 1.2);  // less than two windows before the data end
   EXPECT_THROW(computed_muscle_control(m, in.kinematics, nullptr, nullptr, actuators, in.tasks, nullptr, o), InputError);
   in.tasks[0].coordinate = "no_such_coordinate";
   in.tasks[0].file = "tasks.xml";
