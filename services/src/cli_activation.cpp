@@ -8,6 +8,7 @@
 #include "cpgait/activation/static_optimization.h"
 #include "cpgait/capture/cmc_setup.h"
 #include "cpgait/capture/text_lines.h"
+#include "cpgait/dynamics/forward_simulation.h"
 #include "cpgait/capture/analyze_setup.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/model/osim_reader.h"
@@ -115,6 +116,59 @@ void run_cmc(const CmcInputs& in) {
               in.name.c_str(), in.name.c_str(), in.out_dir.c_str());
 }
 
+
+struct ForwardInputs {
+  std::string model, controls, states, loads, grf, contacts, desired, out_dir, name = "forward";
+  std::vector<std::string> actuator_files;
+  bool replace_force_set = false;
+  bool no_contact = false;
+  ForwardSimulationOptions options;
+};
+
+void run_forward(const ForwardInputs& in) {
+  OsimReadResult mr = read_osim(in.model);
+  print_warnings(mr.warnings);
+  std::vector<ActuatorSpec> specs;
+  if (in.replace_force_set) mr.model.muscles.clear();
+  else specs = read_actuators(in.model);
+  for (const auto& f : in.actuator_files) {
+    auto more = read_actuators(f);
+    specs.insert(specs.end(), more.begin(), more.end());
+  }
+  const ResolvedActuators actuators(mr.model, specs);
+  std::unique_ptr<AppliedLoads> loads;
+  if (!in.loads.empty()) {
+    const ExternalLoadsSpec spec = read_external_loads(in.loads);
+    const std::string data = !in.grf.empty() ? in.grf : resolve_setup_file(spec.setup_dir, spec.datafile, in.loads, "datafile");
+    loads = std::make_unique<AppliedLoads>(mr.model, spec, read_storage(data));
+  }
+  std::optional<ContactSet> contacts;
+  if (!loads && !in.no_contact) contacts = in.contacts.empty() ? default_foot_contacts(mr.model) : read_contact_set(in.contacts, mr.model);
+  std::vector<std::string> missing, warnings;
+  const bool xml = in.controls.size() > 4 && in.controls.compare(in.controls.size() - 4, 4, ".xml") == 0;
+  const ControlHistory controls =
+      xml ? control_history_from_control_set(mr.model, actuators, read_control_set(in.controls), in.controls, &missing)
+          : control_history_from_table(mr.model, actuators, read_storage(in.controls), &missing);
+  if (!missing.empty())
+    warnings.push_back(std::to_string(missing.size()) + " controls are not in " + in.controls + " (muscles at their minimum, actuators off), e.g. " + missing.front());
+  const Storage states = read_storage(in.states);
+  const Eigen::VectorXd x0 = initial_state_from_table(mr.model, states, in.options.t0_s, in.options.compliant_tendons, &warnings);
+  std::optional<Storage> desired;
+  if (in.options.correction_kp || in.options.correction_kv) desired = read_storage(in.desired.empty() ? in.states : in.desired);
+  const ForwardSimulationResult r = forward_simulation(mr.model, actuators, loads.get(), contacts ? &*contacts : nullptr, controls, x0,
+                                                       in.options, desired ? &*desired : nullptr);
+  warnings.insert(warnings.end(), r.warnings.begin(), r.warnings.end());
+  print_warnings(warnings);
+  ensure_directory(in.out_dir);
+  auto path = [&](const char* suffix) { return (fs::path(in.out_dir) / (in.name + suffix)).string(); };
+  write_storage_atomic(forward_states_table(r), path("_states.sto"));
+  write_storage_atomic(forward_kinematics_q_table(mr.model, r), path("_Kinematics_q.sto"));
+  write_storage_atomic(forward_actuation_force_table(r), path("_Actuation_force.sto"));
+  if (!r.contact_names.empty()) write_storage_atomic(forward_contact_force_table(r), path("_contact_forces.sto"));
+  std::printf("%s\nwrote %s_{states,Kinematics_q,Actuation_force%s}.sto in %s\n", r.BriefReport().c_str(), in.name.c_str(),
+              r.contact_names.empty() ? "" : ",contact_forces", in.out_dir.c_str());
+}
+
 }  // namespace
 
 void run_so_setup(const std::string& setup_path, const std::string& results_override) {
@@ -157,6 +211,25 @@ void run_cmc_setup(const std::string& setup_path, const std::string& results_ove
   in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
   in.name = s.name.empty() ? "cmc" : s.name;
   run_cmc(in);
+}
+
+void run_forward_setup(const std::string& setup_path, const std::string& results_override) {
+  const ForwardSetup s = read_forward_setup(setup_path);
+  ForwardInputs in;
+  in.model = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
+  in.controls = resolve_setup_file(s.setup_dir, s.controls_file, setup_path, "controls_file");
+  if (s.states_file.empty()) throw InputError(setup_path, 0, "states_file", "the Forward setup names no states_file (the initial state)");
+  in.states = resolve_setup_file(s.setup_dir, s.states_file, setup_path, "states_file");
+  in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
+  for (const auto& f : s.force_set_files) in.actuator_files.push_back(resolve_setup_file(s.setup_dir, f, setup_path, "force_set_files"));
+  in.replace_force_set = s.replace_force_set;
+  in.options.t0_s = s.initial_time_s;
+  in.options.t1_s = s.final_time_s;
+  in.options.correction_kp = s.correction_kp;
+  in.options.correction_kv = s.correction_kv;
+  in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
+  in.name = s.name.empty() ? "forward" : s.name;
+  run_forward(in);
 }
 
 void add_activation_commands(CLI::App& app) {
@@ -224,6 +297,39 @@ void add_activation_commands(CLI::App& app) {
   cmc->callback([c, ctime] {
     if (ctime->size() == 2) c->options.time_range_s = std::make_pair((*ctime)[0], (*ctime)[1]);
     run_cmc(*c);
+  });
+  auto* fwd = app.add_subcommand(
+      "forward",
+      "Forward simulation (OpenSim's Forward tool): the muscle-driven model from an initial state under given\n"
+      "controls, e.g. CMC's. Controls: CMC's _controls.sto or an OpenSim ControlSet .xml; initial state: the\n"
+      "row of a states .sto at or before the start time. With --loads the measured GRF act; without, contact\n"
+      "spheres. Outputs in DIR: <name>_states.sto, _Kinematics_q.sto (deg), _Actuation_force.sto, and\n"
+      "_contact_forces.sto (N, ground frame) with spheres.");
+  auto fw = std::make_shared<ForwardInputs>();
+  auto ftime = std::make_shared<std::vector<double>>();
+  auto kp = std::make_shared<double>(-1), kv = std::make_shared<double>(-1);
+  fwd->add_option("--model", fw->model, "OpenSim model (.osim)")->required()->check(CLI::ExistingFile);
+  fwd->add_option("--controls", fw->controls, "controls: CMC's _controls.sto or a ControlSet .xml")->required()->check(CLI::ExistingFile);
+  fwd->add_option("--states", fw->states, "states .sto holding the initial state")->required()->check(CLI::ExistingFile);
+  fwd->add_option("--actuators", fw->actuator_files, "actuator ForceSet .xml files (repeatable)")->check(CLI::ExistingFile);
+  fwd->add_option("--loads", fw->loads, "ExternalLoads .xml (measured GRF)")->check(CLI::ExistingFile);
+  fwd->add_option("--grf", fw->grf, "GRF data .mot (default: the datafile the loads name)")->check(CLI::ExistingFile);
+  fwd->add_option("--contacts", fw->contacts, "contact spheres JSON (cpgait.contact/1) used without --loads")->check(CLI::ExistingFile);
+  fwd->add_flag("--no-contact", fw->no_contact, "without --loads, no ground forces at all");
+  fwd->add_option("--time", *ftime, "first and last time, seconds")->expected(2)->required();
+  fwd->add_option("--correction-kp", *kp, "CorrectionController kp, N m per rad (toward the states' or --desired coordinates)");
+  fwd->add_option("--correction-kv", *kv, "CorrectionController kv, N m s per rad");
+  fwd->add_option("--desired", fw->desired, "coordinates the correction controller tracks (default: the states file)")->check(CLI::ExistingFile);
+  fwd->add_flag("!--rigid-tendons", fw->options.compliant_tendons, "rigid tendons (default: compliant)");
+  fwd->add_option("--name", fw->name, "output file prefix")->capture_default_str();
+  fwd->add_option("-o,--output", fw->out_dir, "output folder")->required();
+  fwd->callback([fw, ftime, kp, kv] {
+    fw->options.t0_s = (*ftime)[0];
+    fw->options.t1_s = (*ftime)[1];
+    if (!(fw->options.t1_s > fw->options.t0_s)) throw CLI::ValidationError("--time", "the last time must be after the first");
+    if (*kp >= 0) fw->options.correction_kp = *kp;
+    if (*kv >= 0) fw->options.correction_kv = *kv;
+    run_forward(*fw);
   });
 }
 

@@ -9,7 +9,7 @@ void add_run_tool_command(CLI::App& app) {
   auto* rt = app.add_subcommand("run-tool",
                                 "Run an OpenSim tool setup file as OpenSim would: files resolved relative to the setup,\n"
                                 "results where the setup says (or in --results).\n"
-                                "Supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool (StaticOptimization), CMCTool.");
+                                "Supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool (StaticOptimization), CMCTool, ForwardTool.");
   struct Args {
     std::string setup, results, bounds = "clamped";
   };
@@ -27,8 +27,9 @@ void add_run_tool_command(CLI::App& app) {
     if (tool == "InverseDynamicsTool") return run_id_setup(a->setup, a->results);
     if (tool == "AnalyzeTool") return run_so_setup(a->setup, a->results);
     if (tool == "CMCTool") return run_cmc_setup(a->setup, a->results);
+    if (tool == "ForwardTool") return run_forward_setup(a->setup, a->results);
     throw InputError(a->setup, d.line_of(root), tool,
-                     "this tool is not supported yet (supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool with StaticOptimization, CMCTool)");
+                     "this tool is not supported yet (supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool with StaticOptimization, CMCTool, ForwardTool)");
   });
 }
 

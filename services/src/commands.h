@@ -7,7 +7,7 @@ namespace cpgait::services {
 
 void add_ik_commands(CLI::App& app);        // ik, demo
 void add_dynamics_commands(CLI::App& app);  // id
-void add_activation_commands(CLI::App& app);  // so, cmc
+void add_activation_commands(CLI::App& app);  // so, cmc, forward
 void add_model_commands(CLI::App& app);     // model, synth
 void add_run_tool_command(CLI::App& app);   // run-tool: dispatches on the setup's tool
 void add_run_command(CLI::App& app);        // run: the whole pipeline on one trial
@@ -20,5 +20,6 @@ void run_ik_setup(const std::string& setup_path, const std::string& results_over
 void run_id_setup(const std::string& setup_path, const std::string& results_override);
 void run_so_setup(const std::string& setup_path, const std::string& results_override);  // AnalyzeTool + StaticOptimization
 void run_cmc_setup(const std::string& setup_path, const std::string& results_override);  // CMCTool
+void run_forward_setup(const std::string& setup_path, const std::string& results_override);  // ForwardTool
 
 }  // namespace cpgait::services

@@ -103,6 +103,17 @@ TEST(CliReference, RunToolRunsOpenSimsCmcSetup) {
   const cpgait::Storage c = cpgait::read_storage(dir + "/subject01_walk1_controls.sto");
   EXPECT_GE(c.column("soleus_r.excitation"), 1);
   EXPECT_GE(c.column("FX.excitation"), 1);
+  // Forward from CMC's controls and states (OpenSim's Forward tool), and OpenSim's own Forward setup,
+  // whose states file is not shipped: refused with the field.
+  const CliRun fw = run("forward --model " + pl + "OutputReference/subject01_simbody_adjusted.osim --actuators " + pl +
+                        "gait2392_CMC_Actuators.xml --controls " + dir + "/subject01_walk1_controls.sto --states " + dir +
+                        "/subject01_walk1_states.sto --loads " + pl + "subject01_walk1_grf.xml --time 0.8 0.85 -o " + dir + " --name fw");
+  ASSERT_EQ(fw.status, 0) << fw.output;
+  EXPECT_EQ(cpgait::read_storage(dir + "/fw_Kinematics_q.sto").num_rows(), 51);
+  EXPECT_TRUE(fs::exists(dir + "/fw_Actuation_force.sto"));
+  const CliRun fs_setup = run("run-tool " + pl + "subject01_Setup_Forward.xml --results " + dir);
+  EXPECT_EQ(fs_setup.status, 2);
+  EXPECT_NE(fs_setup.output.find("states_file"), std::string::npos) << fs_setup.output;
   // A task set naming a coordinate the model lacks: the file, line and field.
   std::ofstream(dir + "/tasks.xml") << "<OpenSimDocument><CMC_TaskSet><objects>\n<CMC_Joint name=\"x\">\n"
                                        "<coordinate>no_such</coordinate></CMC_Joint></objects></CMC_TaskSet></OpenSimDocument>";

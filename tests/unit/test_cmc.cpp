@@ -7,6 +7,7 @@
 #include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/dormand_prince.h"
+#include "cpgait/dynamics/forward_simulation.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/fixtures/synthetic_trial.h"
@@ -310,4 +311,34 @@ TEST(ComputedMuscleControl, RefusesTooLittleDataAndUnknownTasks) {
     EXPECT_NE(std::string(e.what()).find("tasks.xml"), std::string::npos);
     EXPECT_NE(std::string(e.what()).find("no_such_coordinate"), std::string::npos);
   }
+}
+
+// The Forward tool run on CMC's own controls and states replays CMC's simulation: the same model,
+// the same control interpolation (OpenSim's ControlLinear nodes), only the integrator's steps differ.
+TEST(ForwardSimulation, ReplaysCmcFromItsControlsAndStates) {
+  const Model& m = walker();
+  const WalkerCmc in = walker_cmc_inputs();
+  const ResolvedActuators actuators(m, in.specs);
+  ComputedMuscleControlOptions o;
+  o.time_range_s = std::make_pair(0.1, 0.5);
+  const auto cmc = computed_muscle_control(m, in.kinematics, nullptr, nullptr, actuators, in.tasks, nullptr, o);
+  std::vector<std::string> missing;
+  const ControlHistory controls = control_history_from_table(m, actuators, cmc_controls_table(cmc), &missing);
+  EXPECT_TRUE(missing.empty());
+  const Eigen::VectorXd x0 = initial_state_from_table(m, cmc_states_table(cmc), 0.2, true);
+  ForwardSimulationOptions fo;
+  fo.t0_s = 0.2;
+  fo.t1_s = 0.3;
+  const auto fwd = forward_simulation(m, actuators, nullptr, nullptr, controls, x0, fo);
+  EXPECT_TRUE(fwd.warnings.empty());
+  const int i_cmc = static_cast<int>(std::lround((0.3 - cmc.time_s.front()) / 0.001));
+  ASSERT_NEAR(cmc.time_s[i_cmc], 0.3, 1e-9);
+  ASSERT_NEAR(fwd.time_s.back(), 0.3, 1e-9);
+  for (int c = 0; c < m.num_coordinates(); ++c)
+    EXPECT_NEAR(fwd.q.bottomRows(1)(0, c), cmc.q(i_cmc, c), 0.1 * M_PI / 180) << m.coordinates[c].name;
+  // Without the muscles' excitations (all at their minimum) the same start goes elsewhere.
+  ControlHistory limp = controls;
+  limp.values.leftCols(m.muscles.size()).setConstant(0.01);
+  const auto off = forward_simulation(m, actuators, nullptr, nullptr, limp, x0, fo);
+  EXPECT_GT((off.q.bottomRows(1).transpose() - cmc.q.row(i_cmc).transpose()).cwiseAbs().maxCoeff(), 1.0 * M_PI / 180);
 }

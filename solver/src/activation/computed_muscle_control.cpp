@@ -403,10 +403,16 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     }
     control_new = sol.tail(na);
     if (t >= t_out - 1e-9) {
-      r.window_time_s.push_back(t);
       Eigen::VectorXd c(nx);
+      if (r.control_time_s.empty()) {  // the node in force at the first output time
+        c << excitation, control_prev;
+        r.control_time_s.push_back(t);
+        rec_controls.push_back(c);
+      }
       c << excitation, control_new;
+      r.control_time_s.push_back(tf);
       rec_controls.push_back(c);
+      r.window_time_s.push_back(t);
       rec_perr.push_back(qd_i - x.head(nq));
     }
 
@@ -502,12 +508,10 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
                                                       : thelen2003::rigid_tendon_fiber(model.muscles[m], g.length_m[m], 0).fiber_length_m;
     }
   }
-  r.controls.resize(nw, nx);
+  r.controls.resize(rec_controls.size(), nx);
+  for (std::size_t i = 0; i < rec_controls.size(); ++i) r.controls.row(i) = rec_controls[i].transpose();
   r.position_error.resize(nw, nq);
-  for (int i = 0; i < nw; ++i) {
-    r.controls.row(i) = rec_controls[i].transpose();
-    r.position_error.row(i) = rec_perr[i].transpose();
-  }
+  for (int i = 0; i < nw; ++i) r.position_error.row(i) = rec_perr[i].transpose();
   r.summary.simulated_s = t - t_out;
   r.summary.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   if (r.summary.windows_residuals_unbounded)
@@ -545,7 +549,7 @@ Storage cmc_controls_table(const ComputedMuscleControlResult& r) {
   std::vector<std::string> names;
   for (const auto& m : r.muscle_names) names.push_back(m + ".excitation");
   for (const auto& a : r.actuator_names) names.push_back(a + ".excitation");
-  return make_storage("Controls", names, r.window_time_s, r.controls, false);
+  return make_storage("Controls", names, r.control_time_s, r.controls, false);
 }
 
 Storage cmc_states_table(const ComputedMuscleControlResult& r) {

@@ -74,9 +74,11 @@ struct ComputedMuscleControlSummary {
 struct ComputedMuscleControlResult {
   std::vector<std::string> coordinate_names, muscle_names, actuator_names;
   std::vector<int> residual_actuators;  // indices into actuator_names acting on the root's 6 DoF
-  // Per window (time at the window's start): excitations then actuator controls; tracking errors
-  // q_desired - q (rad, m) at the window's start.
-  std::vector<double> window_time_s;
+  // Controls as OpenSim's ControlSet nodes: each window's excitations then actuator controls at the
+  // window's end (muscles hold it over the window, actuators ramp to it), after a first node with
+  // the values in force at the first output time. Tracking errors q_desired - q (rad, m) at each
+  // window's start.
+  std::vector<double> control_time_s, window_time_s;
   Eigen::MatrixXd controls, position_error;
   // Per output sample.
   std::vector<double> time_s;
