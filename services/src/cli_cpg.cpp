@@ -9,8 +9,12 @@
 #include "cpgait/capture/storage.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/gait/reproduced_gait.h"
+#include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
 #include "output_files.h"
+#include "setup_files.h"
 
 namespace cpgait::services {
 namespace fs = std::filesystem;
@@ -139,6 +143,72 @@ void add_cpg_commands(CLI::App& app) {
     write_storage_atomic(cpg_table("CPG muscle excitations", m.muscle_names, r.time_s, r.excitations), a->out + "_excitations.sto");
     std::printf("ran %.3f s (%zu steps, cycle %.3f s at speed %.2f); wrote %s_neurons.sto and %s_excitations.sto\n", a->duration_s,
                 r.time_s.size(), m.cycle_s / m.speed, m.speed, a->out.c_str(), a->out.c_str());
+  });
+  // gait: the reproduced gait, driven by a fitted CPG.
+  auto* gait = app.add_subcommand(
+      "gait",
+      "Reproduced gait: the muscle-driven model on contact spheres (no GRF), excited by a fitted CPG with its\n"
+      "feedback and a joint-angle reflex, the pelvis held on the trial's kinematics by residual actuators\n"
+      "(reported; --no-residuals to walk without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
+      "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
+      "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
+  struct GaitArgs {
+    std::string model, cpg, kinematics, contacts, out;
+    double start = -1;
+    ReproducedGaitOptions options;
+    bool no_residuals = false;
+  };
+  auto g = std::make_shared<GaitArgs>();
+  gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
+  gait->add_option("--cpg", g->cpg, "fitted CPG (cpgait cpg fit, or the pipeline's _cpg.json)")->required()->check(CLI::ExistingFile);
+  gait->add_option("--kinematics", g->kinematics, "the trial's coordinates (IK .mot): initial state, reference")->required()->check(CLI::ExistingFile);
+  gait->add_option("--start", g->start, "a heel strike of the CPG's foot in the trial, s (default: the first, Zeni's method)");
+  gait->add_option("--duration", g->options.duration_s, "simulated time, s")->check(CLI::Range(0.01, 60.0))->capture_default_str();
+  gait->add_option("--speed", g->options.speed, "CPG speed knob (the reference is time-scaled alike)")->check(CLI::Range(0.2, 5.0))->capture_default_str();
+  gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
+  gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
+  gait->add_option("--reflex-kp", g->options.reflex_kp, "joint-angle reflex gain, excitation per (m x rad)")->capture_default_str();
+  gait->add_option("--reflex-kv", g->options.reflex_kv, "joint-speed reflex gain, excitation per (m x rad/s)")->capture_default_str();
+  gait->add_option("--contacts", g->contacts, "contact spheres JSON (cpgait.contact/1); default: two per foot")->check(CLI::ExistingFile);
+  gait->add_option("-o,--output", g->out, "output prefix")->required();
+  gait->callback([g] {
+    OsimReadResult mr = read_osim(g->model);
+    print_warnings(mr.warnings);
+    const Model& model = mr.model;
+    const CpgModel cpg = read_cpg_model(g->cpg);
+    const Storage kin = read_storage(g->kinematics);
+    ContactSet contacts = g->contacts.empty() ? default_foot_contacts(model) : read_contact_set(g->contacts, model);
+    if (contacts.spheres.empty())
+      throw InputError(g->model, 0, "contacts", "the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --contacts");
+    ReproducedGaitOptions o = g->options;
+    o.pelvis_residuals = !g->no_residuals;
+    if (g->start >= 0) {
+      o.start_time_s = g->start;
+    } else {
+      const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
+      const std::string foot = model.body_index("calcn_r") >= 0 ? "calcn_r" : "foot_r";
+      const auto strikes = heel_strikes_zeni(model, k.time_s, k.q, foot);
+      if (strikes.empty()) throw InputError(g->kinematics, 0, "start", "no heel strike of " + foot + " found: give --start");
+      o.start_time_s = strikes.front();
+      std::printf("start: heel strike of %s at %.3f s (Zeni)\n", foot.c_str(), o.start_time_s);
+    }
+    // The ground under the recorded feet, as CMC places it.
+    if (g->contacts.empty()) {
+      const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
+      contacts.ground_height_m = ground_height_under_feet(model, contacts, k.q);
+      contacts.ground_velocity_m_s = ground_velocity_under_feet(model, contacts, k.time_s, k.q);
+      std::printf("ground under the recorded feet: y = %.4f m, moving at (%.2f, %.2f, %.2f) m/s%s\n", contacts.ground_height_m,
+                  contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.y(), contacts.ground_velocity_m_s.z(),
+                  contacts.ground_velocity_m_s.norm() > 0 ? " (a treadmill)" : "");
+    }
+    const ReproducedGaitResult r = reproduce_gait(model, cpg, kin, contacts, o);
+    print_warnings(r.warnings);
+    if (!fs::path(g->out).parent_path().empty()) ensure_directory(fs::path(g->out).parent_path().string());
+    write_storage_atomic(reproduced_gait_motion_table(model, r), g->out + "_gait.mot");
+    write_storage_atomic(reproduced_gait_residual_table(r), g->out + "_gait_residuals.sto");
+    write_storage_atomic(reproduced_gait_contact_table(r), g->out + "_gait_contact_forces.sto");
+    write_text_atomic(g->out + "_gait.json", reproduced_gait_metrics(model, r).dump(2) + "\n");
+    std::printf("%s\nwrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", r.BriefReport().c_str(), g->out.c_str());
   });
 }
 

@@ -137,23 +137,13 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   if (!loads && contacts) {
     ground = *contacts;
     if (options.place_ground_under_feet && !ground.spheres.empty()) {
-      KinematicsWorkspace<double> kws(model);
-      double lowest = 1e30;
-      for (int i = 0; i < static_cast<int>(traj.time_s.size()); ++i) {
-        if (traj.time_s[i] < t_begin - 1e-9 || traj.time_s[i] > t_last + 1e-9) continue;
-        const Eigen::VectorXd q = traj.q.row(i).transpose();
-        forward_kinematics(model, q.data(), kws);
-        for (const auto& sp : ground.spheres) {
-          const auto& B = kws.body_in_ground[sp.body];
-          lowest = std::min(lowest, (B.rotation * sp.location_m + B.translation_m).y() - sp.radius_m);
-        }
-      }
-      const double weight_N = model.total_mass_kg() * model.gravity_m_s2.norm();
-      const double press_m = std::pow(0.5 * weight_N / ground.spheres.front().stiffness, 2.0 / 3.0);
-      ground.ground_height_m = lowest + press_m;
-      char buf[200];
-      std::snprintf(buf, sizeof buf, "contact spheres: the ground placed at y = %.4f m, %.1f mm above the lowest sphere's bottom in the desired kinematics",
-                    ground.ground_height_m, press_m * 1000);
+      std::vector<int> rows;
+      for (int k = 0; k < static_cast<int>(traj.time_s.size()); ++k)
+        if (traj.time_s[k] >= t_begin - 1e-9 && traj.time_s[k] <= t_last + 1e-9) rows.push_back(k);
+      ground.ground_height_m = ground_height_under_feet(model, ground, traj.q(rows, Eigen::all));
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "contact spheres: the ground placed under the desired kinematics' feet, at y = %.4f m",
+                    ground.ground_height_m);
       r.summary.warnings.emplace_back(buf);
     }
   }

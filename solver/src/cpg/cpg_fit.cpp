@@ -385,25 +385,21 @@ std::string CpgFitSummary::BriefReport() const {
   return buf;
 }
 
-namespace {
-
-Eigen::VectorXd excitation(const CpgModel& m, const Eigen::VectorXd& y) {
+Eigen::VectorXd cpg_excitations(const CpgModel& m, const Eigen::VectorXd& y) {
   return (m.amplitude * (m.output_map * y + m.output_bias)).cwiseMax(0.0).cwiseMin(1.0);
 }
 
-MatsuokaNetwork at_speed(const CpgModel& m) {
+MatsuokaNetwork network_at_speed(const CpgModel& m) {
   MatsuokaNetwork n = m.network;
   n.tau_r_s /= m.speed;
   n.tau_a_s /= m.speed;
   return n;
 }
 
-}  // namespace
-
 CpgRun run_cpg(const CpgModel& m, double duration_s, double dt, const Eigen::MatrixXd& feedback) {
   CpgRun r;
   const int steps = static_cast<int>(std::lround(duration_s / dt));
-  const MatsuokaNetwork n = at_speed(m);
+  const MatsuokaNetwork n = network_at_speed(m);
   MatsuokaState st = m.start;
   Eigen::MatrixXd input;
   if (feedback.rows() > 0) {
@@ -416,7 +412,7 @@ CpgRun run_cpg(const CpgModel& m, double duration_s, double dt, const Eigen::Mat
   r.excitations.resize(steps, m.output_map.rows());
   for (int i = 0; i < steps; ++i) {
     r.time_s.push_back((i + 1) * dt);
-    r.excitations.row(i) = excitation(m, r.neurons.row(i).transpose()).transpose();
+    r.excitations.row(i) = cpg_excitations(m, r.neurons.row(i).transpose()).transpose();
   }
   return r;
 }
@@ -433,7 +429,7 @@ CpgRun run_cpg_transition(const CpgModel& a, const CpgModel& b, double t0, doubl
     const double t = i * dt;
     const double w = t <= t0 ? 0.0 : t >= t1 ? 1.0 : 0.5 - 0.5 * std::cos(M_PI * (t - t0) / (t1 - t0));
     CpgModel m = a;
-    const MatsuokaNetwork na = at_speed(a), nb = at_speed(b);
+    const MatsuokaNetwork na = network_at_speed(a), nb = network_at_speed(b);
     m.speed = 1.0;
     m.network.tau_r_s = (1 - w) * na.tau_r_s + w * nb.tau_r_s;
     m.network.tau_a_s = (1 - w) * na.tau_a_s + w * nb.tau_a_s;
@@ -444,7 +440,7 @@ CpgRun run_cpg_transition(const CpgModel& a, const CpgModel& b, double t0, doubl
     m.output_bias = (1 - w) * a.output_bias + w * b.output_bias;
     m.amplitude = (1 - w) * a.amplitude + w * b.amplitude;
     r.neurons.row(i) = simulate_matsuoka(m.network, st, dt, 1).row(0);
-    r.excitations.row(i) = excitation(m, r.neurons.row(i).transpose()).transpose();
+    r.excitations.row(i) = cpg_excitations(m, r.neurons.row(i).transpose()).transpose();
     r.time_s.push_back((i + 1) * dt);
   }
   return r;

@@ -1,5 +1,9 @@
 #include "cpgait/dynamics/contact.h"
 
+#include <algorithm>
+
+#include "cpgait/kinematics/forward_kinematics.h"
+
 #include <cmath>
 
 #include "cpgait/capture/input_error.h"
@@ -17,15 +21,16 @@ Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& s
   double fn = s.stiffness * std::pow(d_pos, 1.5) * (1 + 1.5 * s.dissipation * rate);
   fn = 0.5 * (fn + std::sqrt(fn * fn + 1e-12));  // smooth clamp at zero (no pulling)
   Eigen::Vector3d f(0, fn, 0);
-  const Eigen::Vector2d vt(v.x(), v.z());
+  const Eigen::Vector3d v_rel = v - set.ground_velocity_m_s;
+  const Eigen::Vector2d vt(v_rel.x(), v_rel.z());
   const double speed = std::sqrt(vt.squaredNorm() + 1e-12);
   const double x = speed / s.transition_velocity;
   // OpenSim's smooth Stribeck curve: rises to mu_s near the transition velocity, settles at mu_d,
   // plus a viscous part.
   const double mu = s.dynamic_friction * std::tanh(4 * x) + (s.static_friction - s.dynamic_friction) * x / std::pow(0.25 * x * x + 0.75, 2) +
                     s.viscous_friction * speed;
-  f.x() = -mu * fn * v.x() / speed;
-  f.z() = -mu * fn * v.z() / speed;
+  f.x() = -mu * fn * v_rel.x() / speed;
+  f.z() = -mu * fn * v_rel.z() / speed;
   return f;
 }
 
@@ -55,6 +60,11 @@ ContactSet parse_contact_set_json(const std::string& text, const std::string& na
     throw InputError(name, 0, "spheres", "expected an object with a non-empty \"spheres\" array");
   ContactSet set;
   if (j.contains("ground_height_m")) set.ground_height_m = json_field<double>(j, "ground_height_m", name, "");
+  if (j.contains("ground_velocity_m_s")) {
+    const auto v = json_field<std::vector<double>>(j, "ground_velocity_m_s", name, "");
+    if (v.size() != 3) throw InputError(name, 0, "ground_velocity_m_s", "expected 3 numbers (m/s, ground frame)");
+    set.ground_velocity_m_s = {v[0], v[1], v[2]};
+  }
   ContactSphere defaults;
   if (j.contains("defaults")) read_sphere_fields(j["defaults"], defaults, name, "defaults");
   for (std::size_t i = 0; i < j["spheres"].size(); ++i) {
@@ -76,6 +86,63 @@ ContactSet parse_contact_set_json(const std::string& text, const std::string& na
 
 ContactSet read_contact_set(const std::string& path, const Model& model) {
   return parse_contact_set_json(text::read_file(path), path, model);
+}
+
+double ground_height_under_feet(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q_samples) {
+  if (set.spheres.empty() || q_samples.rows() == 0) return set.ground_height_m;
+  // Walking always has a foot down: the lowest sphere of each pose is on the ground in most poses,
+  // so its median height is the ground's (the minimum would be one outlying pose).
+  KinematicsWorkspace<double> kws(model);
+  std::vector<double> lowest(q_samples.rows(), 1e30);
+  for (int i = 0; i < q_samples.rows(); ++i) {
+    const Eigen::VectorXd q = q_samples.row(i).transpose();
+    forward_kinematics(model, q.data(), kws);
+    for (const auto& sp : set.spheres) {
+      const auto& B = kws.body_in_ground[sp.body];
+      lowest[i] = std::min(lowest[i], (B.rotation * sp.location_m + B.translation_m).y() - sp.radius_m);
+    }
+  }
+  std::nth_element(lowest.begin(), lowest.begin() + lowest.size() / 2, lowest.end());
+  const double weight_N = model.total_mass_kg() * model.gravity_m_s2.norm();
+  return lowest[lowest.size() / 2] + std::pow(0.5 * weight_N / set.spheres.front().stiffness, 2.0 / 3.0);
+}
+
+Eigen::Vector3d ground_velocity_under_feet(const Model& model, const ContactSet& set, const std::vector<double>& t,
+                                           const Eigen::MatrixXd& q) {
+  if (set.spheres.empty() || q.rows() < 3) return Eigen::Vector3d::Zero();
+  KinematicsWorkspace<double> kws(model);
+  std::vector<Eigen::Vector3d> bottoms(q.rows());
+  std::vector<int> lowest(q.rows());
+  std::vector<std::vector<Eigen::Vector3d>> centres(q.rows());
+  for (int i = 0; i < q.rows(); ++i) {
+    const Eigen::VectorXd qi = q.row(i).transpose();
+    forward_kinematics(model, qi.data(), kws);
+    double low = 1e30;
+    for (std::size_t s = 0; s < set.spheres.size(); ++s) {
+      const auto& sp = set.spheres[s];
+      const auto& B = kws.body_in_ground[sp.body];
+      centres[i].push_back(B.rotation * sp.location_m + B.translation_m);
+      if (centres[i].back().y() - sp.radius_m < low) {
+        low = centres[i].back().y() - sp.radius_m;
+        lowest[i] = static_cast<int>(s);
+      }
+    }
+  }
+  std::vector<double> vx, vz;
+  for (int i = 1; i + 1 < q.rows(); ++i) {
+    const int s = lowest[i];
+    if (centres[i][s].y() - set.spheres[s].radius_m > set.ground_height_m + 0.01) continue;
+    const Eigen::Vector3d v = (centres[i + 1][s] - centres[i - 1][s]) / (t[i + 1] - t[i - 1]);
+    vx.push_back(v.x());
+    vz.push_back(v.z());
+  }
+  if (vx.empty()) return Eigen::Vector3d::Zero();
+  auto median = [](std::vector<double> a) {
+    std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
+    return a[a.size() / 2];
+  };
+  const Eigen::Vector3d v(median(vx), 0.0, median(vz));
+  return v.norm() < 0.1 ? Eigen::Vector3d::Zero() : v;
 }
 
 ContactSet default_foot_contacts(const Model& model) {

@@ -98,6 +98,12 @@ struct CpgRun {
 };
 CpgRun run_cpg(const CpgModel& model, double duration_s, double dt_s, const Eigen::MatrixXd& feedback = Eigen::MatrixXd());
 
+// The network with the speed knob applied (time constants / speed), and the muscle excitations for
+// neuron outputs y (amplitude applied, clamped to [0, 1]): what run_cpg steps, for callers that step
+// the network themselves (the reproduced gait closes its feedback loop that way).
+MatsuokaNetwork network_at_speed(const CpgModel& model);
+Eigen::VectorXd cpg_excitations(const CpgModel& model, const Eigen::VectorXd& y);
+
 // A smooth change from model a to model b (same structure) over [t0, t1]: parameters blend with a
 // cosine ramp, e.g. walk -> faster walk, walk -> stand (amplitude 0).
 CpgRun run_cpg_transition(const CpgModel& a, const CpgModel& b, double t0_s, double t1_s, double duration_s, double dt_s);

@@ -29,6 +29,9 @@ struct ContactSphere {
 
 struct ContactSet {
   double ground_height_m = 0.0;
+  // The ground's own velocity (m/s, ground frame): a treadmill belt. Friction acts on the velocity
+  // relative to it.
+  Eigen::Vector3d ground_velocity_m_s = Eigen::Vector3d::Zero();
   double smoothing_m = 1e-5;  // eps: the penetration below which the force fades out smoothly
   std::vector<ContactSphere> spheres;
 };
@@ -38,12 +41,23 @@ struct ContactSet {
 Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& set, const Eigen::Vector3d& centre_G_m,
                                      const Eigen::Vector3d& velocity_G_m_s);
 
-// JSON "cpgait.contact/1": {"ground_height_m": 0, "defaults": {sphere fields}, "spheres": [{"name",
+// JSON "cpgait.contact/1": {"ground_height_m": 0, "ground_velocity_m_s": [3] (a treadmill belt), "defaults": {sphere fields}, "spheres": [{"name",
 // "body", "location_m": [3], "radius_m", "stiffness", "dissipation", "static_friction",
 // "dynamic_friction", "viscous_friction", "transition_velocity"}]}; missing fields take "defaults",
 // then the values above. Throws InputError naming the field.
 ContactSet parse_contact_set_json(const std::string& text, const std::string& name, const Model& model);
 ContactSet read_contact_set(const std::string& path, const Model& model);
+
+// A ground height under recorded feet: the median over the poses (rows of q) of the lowest sphere
+// bottom, raised by how far half the body weight presses one sphere in, so that the standing foot
+// stands rather than hovers. For simulations on spheres that follow a recorded trial.
+double ground_height_under_feet(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q_samples);
+
+// The velocity of whatever the recorded feet stand on: the median horizontal velocity of the lowest
+// sphere while it is within 1 cm of the ground. A treadmill trial gives the belt's velocity (the
+// stance foot moves backwards with it); overground, under 0.1 m/s, it is taken as zero.
+Eigen::Vector3d ground_velocity_under_feet(const Model& model, const ContactSet& set, const std::vector<double>& time_s,
+                                           const Eigen::MatrixXd& q_samples);
 
 // Two spheres per foot (heel and toes) on calcn_/toes_ bodies (gait2392 and its kin) or on foot_
 // bodies (the fixture walker): the default when a simulation has no GRF and no contact file.

@@ -1,0 +1,356 @@
+#include "cpgait/gait/reproduced_gait.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "cpgait/capture/input_error.h"
+#include "cpgait/cpg/matsuoka.h"
+#include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/dynamics/muscle_driven_dynamics.h"
+#include "cpgait/dynamics/rosenbrock_w.h"
+#include "cpgait/muscles/thelen2003.h"
+
+namespace cpgait {
+
+namespace {
+
+constexpr double kContactThresholdN = 20.0;
+
+int side_of(const std::string& name) {
+  if (name.size() >= 2 && name.compare(name.size() - 2, 2, "_r") == 0) return 0;
+  if (name.size() >= 2 && name.compare(name.size() - 2, 2, "_l") == 0) return 1;
+  return -1;
+}
+
+// Times a signal rises through a threshold (linear interpolation between samples).
+std::vector<double> rising_through(const std::vector<double>& t, const std::vector<double>& v, double threshold, double min_gap_s) {
+  std::vector<double> out;
+  for (std::size_t i = 1; i < v.size(); ++i)
+    if (v[i - 1] < threshold && v[i] >= threshold) {
+      const double tc = t[i - 1] + (threshold - v[i - 1]) / (v[i] - v[i - 1]) * (t[i] - t[i - 1]);
+      if (out.empty() || tc - out.back() >= min_gap_s) out.push_back(tc);
+    }
+  return out;
+}
+
+}  // namespace
+
+ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, const Storage& reference,
+                                    const ContactSet& contacts, const ReproducedGaitOptions& o, Progress* progress) {
+  const auto clock_start = std::chrono::steady_clock::now();
+  ReproducedGaitResult r;
+  r.coordinate_names = coordinate_names(model);
+  const int nq = model.num_coordinates(), nm = static_cast<int>(model.muscles.size());
+  if (contacts.spheres.empty()) throw InputError(reference.name, 0, "contacts", "the reproduced gait needs contact spheres");
+
+  CpgModel cpg = cpg_in;
+  cpg.speed = cpg_in.speed * o.speed;
+  cpg.amplitude = cpg_in.amplitude * o.amplitude;
+  const MatsuokaNetwork network = network_at_speed(cpg);
+  std::vector<int> cpg_to_model(cpg.muscle_names.size(), -1);
+  int matched = 0;
+  for (std::size_t k = 0; k < cpg.muscle_names.size(); ++k) {
+    cpg_to_model[k] = model.muscles.empty() ? -1 : [&] {
+      for (int m = 0; m < nm; ++m)
+        if (model.muscles[m].name == cpg.muscle_names[k]) return m;
+      return -1;
+    }();
+    matched += cpg_to_model[k] >= 0;
+  }
+  if (matched == 0) throw InputError("cpg", 0, "muscles", "none of the CPG's muscles is in model " + model.name);
+  if (matched < nm) r.warnings.push_back(std::to_string(nm - matched) + " muscles have no CPG output and stay at their minimum excitation");
+
+  // Feedback signals: coordinates (rad) or bodies (1 while their spheres press the ground).
+  struct Signal {
+    int coordinate = -1, body = -1;
+  };
+  std::vector<Signal> signals;
+  for (const auto& name : cpg.feedback_signals) {
+    Signal s;
+    s.coordinate = model.coordinate_index(name);
+    if (s.coordinate < 0) s.body = model.body_index(name);
+    if (s.coordinate < 0 && s.body <= 0)
+      throw InputError("cpg", 0, "feedback_signals", "'" + name + "' is neither a coordinate nor a body of model " + model.name);
+    signals.push_back(s);
+  }
+
+  // The reference, its root coordinates, and the start.
+  const CoordinateTrajectories ref = coordinate_trajectories(model, reference, {});
+  r.warnings.insert(r.warnings.end(), ref.warnings.begin(), ref.warnings.end());
+  auto reference_at = [&](double tau, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) {
+    const auto& ts = ref.time_s;
+    const int n = static_cast<int>(ts.size());
+    const int i = std::clamp(static_cast<int>(std::upper_bound(ts.begin(), ts.end(), tau) - ts.begin()) - 1, 0, n - 2);
+    const double w = std::clamp((tau - ts[i]) / (ts[i + 1] - ts[i]), 0.0, 1.0);
+    q = ((1 - w) * ref.q.row(i) + w * ref.q.row(i + 1)).transpose();
+    u = ((1 - w) * ref.qd.row(i) + w * ref.qd.row(i + 1)).transpose() * o.speed;
+    a = ((1 - w) * ref.qdd.row(i) + w * ref.qdd.row(i + 1)).transpose() * (o.speed * o.speed);
+  };
+  const double tau0 = o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s;
+  const double ref_end = ref.time_s.back();
+  if (tau0 < ref.time_s.front() || tau0 > ref_end)
+    throw InputError(reference.name, 0, "start_time", "the start (heel strike + the CPG's start phase) lies outside the reference kinematics");
+  const double tracked_until = std::min(o.duration_s, (ref_end - tau0) / o.speed);  // reference time available
+  if (tracked_until < o.duration_s)
+    r.warnings.push_back("the reference kinematics end after " + std::to_string(tracked_until) +
+                         " s of simulated time: tracking errors and pelvis residuals use the reference up to there");
+  std::vector<int> root;
+  for (const auto& j : model.joints)
+    if (j.parent_body == 0) {
+      root = j.coordinates;
+      break;
+    }
+  for (int c : root) r.residual_names.push_back(model.coordinates[c].name + (model.coordinates[c].is_angle() ? "_moment" : "_force"));
+
+  MuscleDrivenSystem sys;
+  sys.model = &model;
+  sys.contacts = &contacts;
+  sys.compliant_tendons = o.compliant_tendons;
+  for (const auto& s : contacts.spheres) r.contact_names.push_back(s.name);
+  MuscleDrivenWorkspace ws(sys);
+  MuscleDrivenJacobian jac;
+
+  // Initial state on the reference, muscles at the CPG's excitations.
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), xdot(sys.state_size()), q_ref(nq), u_ref(nq), a_ref(nq);
+  reference_at(tau0, q_ref, u_ref, a_ref);
+  x.head(nq) = q_ref;
+  x.segment(nq, nq) = u_ref;
+  MatsuokaState neurons = cpg.start;
+  MatsuokaScratch scratch;
+  Eigen::VectorXd excitation(nm), no_controls(0);
+  auto cpg_excitation_now = [&]() {
+    for (int m = 0; m < nm; ++m) excitation[m] = model.muscles[m].min_control;
+    const Eigen::VectorXd y = neurons.x.cwiseMax(0.0);
+    const Eigen::VectorXd e = cpg_excitations(cpg, y);
+    for (std::size_t k = 0; k < cpg_to_model.size(); ++k)
+      if (cpg_to_model[k] >= 0) excitation[cpg_to_model[k]] = e[k];
+  };
+  cpg_excitation_now();
+  for (int m = 0; m < nm; ++m) x[sys.activation_index(m)] = std::clamp(excitation[m], model.muscles[m].min_control, 1.0);
+  muscle_driven_derivatives(sys, 0.0, x, excitation, no_controls, ws, xdot);
+  if (o.compliant_tendons)
+    for (int m = 0; m < nm; ++m)
+      x[sys.fiber_length_index(m)] = thelen2003::compliant_equilibrium_fiber_length(
+          model.muscles[m], x[sys.activation_index(m)], ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]);
+  // The pelvis height: pelvis_ty, or the root's fifth coordinate (OpenSim's free-joint order).
+  const int height_coordinate = model.coordinate_index("pelvis_ty") >= 0 ? model.coordinate_index("pelvis_ty")
+                                : root.size() > 4                        ? root[4]
+                                                                         : -1;
+  const double start_height = height_coordinate >= 0 ? x[height_coordinate] : 0.0;
+
+  Eigen::VectorXd tau_root = Eigen::VectorXd::Zero(nq);  // the residuals, as generalized forces
+  auto f = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+    muscle_driven_derivatives(sys, t, y, excitation, no_controls, ws, dy);
+    if (o.pelvis_residuals) dy.segment(nq, nq) += ws.fd.llt.solve(tau_root);
+  };
+  auto prepare = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
+    muscle_driven_prepare(sys, t, y, excitation, no_controls, ws, jac, f0);
+    if (o.pelvis_residuals) f0.segment(nq, nq) += ws.fd.llt.solve(tau_root);
+  };
+  auto w_solve = [&](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) { muscle_driven_w_solve(sys, jac, gh, rhs, k); };
+  RosenbrockOptions ro;
+  ro.relative_tolerance = ro.absolute_tolerance = o.integrator_tolerance;
+  ro.max_step_s = o.control_interval_s;
+
+  const double dt = o.control_interval_s;
+  const int steps = static_cast<int>(std::lround(o.duration_s / dt));
+  std::vector<Eigen::VectorXd> rec_q, rec_ref, rec_res, rec_exc, rec_contact;
+  Eigen::VectorXd u_in(network.size()), sig(signals.size());
+  for (int k = 0; k <= steps; ++k) {
+    if (progress && progress->cancelled()) throw std::runtime_error("reproduced gait cancelled");
+    const double t = k * dt;
+    const double tau = tau0 + std::min(t, tracked_until) * o.speed;
+    reference_at(tau, q_ref, u_ref, a_ref);
+    // Forces at the current state without residuals: contact, muscles, geometry for the reflexes.
+    tau_root.setZero();
+    muscle_driven_derivatives(sys, t, x, excitation, no_controls, ws, xdot);
+    Eigen::VectorXd contact_row(3 * contacts.spheres.size());
+    for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
+      contact_row.segment<3>(3 * s) = ws.contact_force_N[s];
+    }
+    // Pelvis residuals: the root's accelerations made the reference's plus PD.
+    if (o.pelvis_residuals && !root.empty()) {
+      const Eigen::MatrixXd Minv = ws.fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
+      const int nr = static_cast<int>(root.size());
+      Eigen::MatrixXd B(nr, nr);
+      Eigen::VectorXd want(nr);
+      for (int i = 0; i < nr; ++i) {
+        const int c = root[i];
+        want[i] = a_ref[c] + o.pelvis_kv * (u_ref[c] - x[nq + c]) + o.pelvis_kp * (q_ref[c] - x[c]) - xdot[nq + c];
+        for (int j = 0; j < nr; ++j) B(i, j) = Minv(c, root[j]);
+      }
+      const Eigen::VectorXd tr = B.partialPivLu().solve(want);
+      for (int i = 0; i < nr; ++i) tau_root[root[i]] = tr[i];
+    }
+    // Record.
+    r.time_s.push_back(t);
+    rec_q.push_back(x.head(nq));
+    rec_ref.push_back(q_ref);
+    Eigen::VectorXd res(root.size());
+    for (std::size_t i = 0; i < root.size(); ++i) res[i] = tau_root[root[i]];
+    rec_res.push_back(res);
+    rec_exc.push_back(excitation);
+    rec_contact.push_back(contact_row);
+    if (r.fell_at_s < 0 && height_coordinate >= 0 && x[height_coordinate] < o.fall_height_fraction * start_height) {
+      r.fell_at_s = t;
+      break;
+    }
+    if (k == steps) break;
+    // The CPG advances with its feedback; excitations from it and the reflexes.
+    for (std::size_t i = 0; i < signals.size(); ++i) {
+      if (signals[i].coordinate >= 0) {
+        sig[i] = x[signals[i].coordinate];
+      } else {
+        double fy = 0;
+        for (std::size_t s = 0; s < contacts.spheres.size(); ++s)
+          if (contacts.spheres[s].body == signals[i].body) fy += ws.contact_force_N[s].y();
+        sig[i] = fy > kContactThresholdN ? 1.0 : 0.0;
+      }
+    }
+    u_in = signals.empty() ? Eigen::VectorXd::Zero(network.size()) : Eigen::VectorXd(cpg.feedback_gains * sig);
+    matsuoka_step(network, neurons, dt, u_in, scratch);
+    cpg_excitation_now();
+    if (o.reflex_kp != 0 || o.reflex_kv != 0) {
+      Eigen::VectorXd e = q_ref - x.head(nq), ed = u_ref - x.segment(nq, nq);
+      for (int c : root) e[c] = ed[c] = 0;
+      const Eigen::VectorXd drive = o.reflex_kp * (ws.geometry.moment_arm_m * e) + o.reflex_kv * (ws.geometry.moment_arm_m * ed);
+      for (int m = 0; m < nm; ++m)
+        excitation[m] = std::clamp(excitation[m] + drive[m], model.muscles[m].min_control, model.muscles[m].max_control);
+    }
+    const auto s = integrate_ros2(f, prepare, w_solve, t, t + dt, x, ro);
+    ro.initial_step_s = s.last_step_s;
+    r.integrator_steps += s.accepted_steps;
+    if (!s.success || !x.allFinite()) {
+      r.warnings.push_back("the simulation stopped at " + std::to_string(t) + " s: " + (s.success ? "the state is not finite" : s.message));
+      r.fell_at_s = t;
+      break;
+    }
+    if (progress) progress->report(double(k + 1) / steps, "reproduced gait");
+  }
+
+  // Tables and metrics.
+  const int ns = static_cast<int>(r.time_s.size());
+  r.q.resize(ns, nq);
+  r.q_reference.resize(ns, nq);
+  r.residuals.resize(ns, root.size());
+  r.excitations.resize(ns, nm);
+  r.contact_force_N.resize(ns, 3 * contacts.spheres.size());
+  for (int i = 0; i < ns; ++i) {
+    r.q.row(i) = rec_q[i].transpose();
+    r.q_reference.row(i) = rec_ref[i].transpose();
+    r.residuals.row(i) = rec_res[i].transpose();
+    r.excitations.row(i) = rec_exc[i].transpose();
+    r.contact_force_N.row(i) = rec_contact[i].transpose();
+  }
+  r.tracking_rms = Eigen::VectorXd::Zero(nq);
+  int n_tracked = 0;
+  for (int i = 0; i < ns; ++i)
+    if (r.time_s[i] <= tracked_until + 1e-9) {
+      r.tracking_rms += (r.q.row(i) - r.q_reference.row(i)).transpose().cwiseAbs2();
+      ++n_tracked;
+    }
+  r.tracking_rms = (r.tracking_rms / std::max(1, n_tracked)).cwiseSqrt();
+  for (int c = 0; c < nq; ++c)
+    if (model.coordinates[c].is_angle() && r.tracking_rms[c] > r.worst_rotation_rms_rad) {
+      r.worst_rotation_rms_rad = r.tracking_rms[c];
+      r.worst_rotation = model.coordinates[c].name;
+    }
+  // Heel strikes: a foot's spheres pressing through the threshold (at least 0.4 s apart).
+  std::vector<double> load[2];
+  for (int i = 0; i < ns; ++i) {
+    double side_load[2] = {0, 0};
+    for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
+      const int side = side_of(contacts.spheres[s].name);
+      if (side >= 0) side_load[side] += r.contact_force_N(i, 3 * s + 1);
+    }
+    load[0].push_back(side_load[0]);
+    load[1].push_back(side_load[1]);
+  }
+  r.heel_strikes_r_s = rising_through(r.time_s, load[0], kContactThresholdN, 0.4);
+  r.heel_strikes_l_s = rising_through(r.time_s, load[1], kContactThresholdN, 0.4);
+  // Strides of the right foot (the CPG's cycle): time, and the pelvis' horizontal travel.
+  const int tx = model.coordinate_index("pelvis_tx"), tz = model.coordinate_index("pelvis_tz");
+  auto pelvis_xz = [&](double t) {
+    const int i = std::clamp(static_cast<int>(std::lround(t / dt)), 0, ns - 1);
+    return Eigen::Vector2d(tx >= 0 ? r.q(i, tx) : 0.0, tz >= 0 ? r.q(i, tz) : 0.0);
+  };
+  const auto& hs = r.heel_strikes_r_s;
+  // On a treadmill the distance walked is the belt's travel plus the pelvis' drift over it.
+  const Eigen::Vector2d belt(contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.z());
+  auto walked = [&](double t0, double t1) { return (pelvis_xz(t1) - pelvis_xz(t0) - belt * (t1 - t0)).norm(); };
+  if (hs.size() >= 2) {
+    r.stride_time_s = (hs.back() - hs.front()) / (hs.size() - 1);
+    r.stride_length_m = walked(hs.front(), hs.back()) / (hs.size() - 1);
+    r.speed_m_s = r.stride_length_m / r.stride_time_s;
+  }
+  if (ns > 1) r.distance_m = walked(0, r.time_s.back());
+  if (o.pelvis_residuals && ns > 0) {
+    double force = 0, moment = 0;
+    for (int i = 0; i < ns; ++i) {
+      Eigen::Vector3d F = Eigen::Vector3d::Zero(), M = Eigen::Vector3d::Zero();
+      int nf = 0, nmnt = 0;
+      for (std::size_t j = 0; j < root.size(); ++j)
+        if (model.coordinates[root[j]].is_angle()) M[nmnt++ % 3] = r.residuals(i, j);
+        else F[nf++ % 3] = r.residuals(i, j);
+      force += F.norm();
+      moment += M.norm();
+    }
+    r.mean_residual_force_percent_bw = 100 * force / ns / (model.total_mass_kg() * model.gravity_m_s2.norm());
+    r.mean_residual_moment_Nm = moment / ns;
+  }
+  r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  return r;
+}
+
+std::string ReproducedGaitResult::BriefReport() const {
+  char buf[500];
+  std::snprintf(buf, sizeof buf,
+                "Gait: %.2f s simulated in %.2f s (%.1fx real time); %zu right and %zu left heel strikes; stride %.3f s, "
+                "%.3f m, %.2f m/s; worst rotation RMS vs reference %s %.2f deg; pelvis residual force %.1f %% BW, moment "
+                "%.1f N m; %s",
+                time_s.empty() ? 0.0 : time_s.back(), solve_seconds, real_time_factor(), heel_strikes_r_s.size(),
+                heel_strikes_l_s.size(), stride_time_s, stride_length_m, speed_m_s, worst_rotation.c_str(),
+                worst_rotation_rms_rad * 180 / M_PI, mean_residual_force_percent_bw, mean_residual_moment_Nm,
+                fell_at_s >= 0 ? ("fell at " + std::to_string(fell_at_s) + " s after " + std::to_string(distance_m) + " m").c_str()
+                               : ("walked " + std::to_string(distance_m) + " m").c_str());
+  return buf;
+}
+
+Storage reproduced_gait_motion_table(const Model& model, const ReproducedGaitResult& r) {
+  return make_storage("ReproducedGait", r.coordinate_names, r.time_s, coordinates_in_file_units(model, r.q), true);
+}
+
+Storage reproduced_gait_residual_table(const ReproducedGaitResult& r) {
+  return make_storage("PelvisResiduals", r.residual_names, r.time_s, r.residuals, false);
+}
+
+Storage reproduced_gait_contact_table(const ReproducedGaitResult& r) {
+  std::vector<std::string> names;
+  for (const auto& s : r.contact_names)
+    for (const char* a : {"_force_x", "_force_y", "_force_z"}) names.push_back(s + a);
+  return make_storage("ContactForces", names, r.time_s, r.contact_force_N, false);
+}
+
+nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitResult& r) {
+  nlohmann::json j;
+  j["simulated_s"] = r.time_s.empty() ? 0.0 : r.time_s.back();
+  j["real_time_factor"] = r.real_time_factor();
+  j["heel_strikes_s"] = {{"right", r.heel_strikes_r_s}, {"left", r.heel_strikes_l_s}};
+  j["stride_time_s"] = r.stride_time_s;
+  j["stride_length_m"] = r.stride_length_m;
+  j["speed_m_s"] = r.speed_m_s;
+  j["distance_m"] = r.distance_m;
+  j["fell_at_s"] = r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr);
+  j["pelvis_residual_force_percent_bw"] = r.mean_residual_force_percent_bw;
+  j["pelvis_residual_moment_Nm"] = r.mean_residual_moment_Nm;
+  nlohmann::json rms = nlohmann::json::object();
+  for (int c = 0; c < model.num_coordinates(); ++c)
+    rms[r.coordinate_names[c]] = model.coordinates[c].is_angle() ? r.tracking_rms[c] * 180 / M_PI : r.tracking_rms[c];
+  j["tracking_rms_deg_or_m"] = rms;
+  j["warnings"] = r.warnings;
+  return j;
+}
+
+}  // namespace cpgait
