@@ -140,10 +140,17 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       std::vector<int> rows;
       for (int k = 0; k < static_cast<int>(traj.time_s.size()); ++k)
         if (traj.time_s[k] >= t_begin - 1e-9 && traj.time_s[k] <= t_last + 1e-9) rows.push_back(k);
-      ground.ground_height_m = ground_height_under_feet(model, ground, traj.q(rows, Eigen::all));
-      char buf[160];
-      std::snprintf(buf, sizeof buf, "contact spheres: the ground placed under the desired kinematics' feet, at y = %.4f m",
-                    ground.ground_height_m);
+      const Eigen::MatrixXd q_rows = traj.q(rows, Eigen::all);
+      std::vector<double> t_rows;
+      for (int k : rows) t_rows.push_back(traj.time_s[k]);
+      ground.ground_height_m = ground_height_under_feet(model, ground, q_rows);
+      ground.ground_velocity_m_s = ground_velocity_under_feet(model, ground, t_rows, q_rows);
+      char buf[220];
+      std::snprintf(buf, sizeof buf,
+                    "contact spheres: the ground placed under the desired kinematics' feet, at y = %.4f m, moving at "
+                    "(%.2f, %.2f, %.2f) m/s",
+                    ground.ground_height_m, ground.ground_velocity_m_s.x(), ground.ground_velocity_m_s.y(),
+                    ground.ground_velocity_m_s.z());
       r.summary.warnings.emplace_back(buf);
     }
   }

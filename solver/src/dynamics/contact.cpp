@@ -90,8 +90,9 @@ ContactSet read_contact_set(const std::string& path, const Model& model) {
 
 double ground_height_under_feet(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q_samples) {
   if (set.spheres.empty() || q_samples.rows() == 0) return set.ground_height_m;
-  // Walking always has a foot down: the lowest sphere of each pose is on the ground in most poses,
-  // so its median height is the ground's (the minimum would be one outlying pose).
+  // The lowest sphere bottom over the poses. (The median of each pose's lowest bottom, which is
+  // nearer a standing foot's height, presses the feet in ~7 mm deeper on subject01 and made CMC's
+  // integration fail at the first stance: measured.)
   KinematicsWorkspace<double> kws(model);
   std::vector<double> lowest(q_samples.rows(), 1e30);
   for (int i = 0; i < q_samples.rows(); ++i) {
@@ -102,9 +103,8 @@ double ground_height_under_feet(const Model& model, const ContactSet& set, const
       lowest[i] = std::min(lowest[i], (B.rotation * sp.location_m + B.translation_m).y() - sp.radius_m);
     }
   }
-  std::nth_element(lowest.begin(), lowest.begin() + lowest.size() / 2, lowest.end());
   const double weight_N = model.total_mass_kg() * model.gravity_m_s2.norm();
-  return lowest[lowest.size() / 2] + std::pow(0.5 * weight_N / set.spheres.front().stiffness, 2.0 / 3.0);
+  return *std::min_element(lowest.begin(), lowest.end()) + std::pow(0.5 * weight_N / set.spheres.front().stiffness, 2.0 / 3.0);
 }
 
 Eigen::Vector3d ground_velocity_under_feet(const Model& model, const ContactSet& set, const std::vector<double>& t,

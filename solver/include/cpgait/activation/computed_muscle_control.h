@@ -54,8 +54,9 @@ struct ComputedMuscleControlOptions {
   // with the same average residuals, but the left ankle's error grows (0.67 -> 1.16 deg) (measured).
   bool refresh_actuators = false;
   bool compliant_tendons = true;       // OpenSim's Thelen2003Muscle; false: rigid tendons
-  // With contact spheres (no measured loads): move the contact set's ground plane under the desired
-  // kinematics' feet (the lowest sphere pressed in by half the body weight). Off: the file's height.
+  // With contact spheres (no measured loads): put the contact set's ground under the desired
+  // kinematics' feet, at their height and, on a treadmill, moving with the belt (contact.h). Off:
+  // the contact file's ground.
   bool place_ground_under_feet = true;
 };
 

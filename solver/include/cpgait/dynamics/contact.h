@@ -48,9 +48,9 @@ Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& s
 ContactSet parse_contact_set_json(const std::string& text, const std::string& name, const Model& model);
 ContactSet read_contact_set(const std::string& path, const Model& model);
 
-// A ground height under recorded feet: the median over the poses (rows of q) of the lowest sphere
-// bottom, raised by how far half the body weight presses one sphere in, so that the standing foot
-// stands rather than hovers. For simulations on spheres that follow a recorded trial.
+// A ground height under recorded feet: the lowest sphere bottom over the poses (rows of q), raised
+// by how far half the body weight presses one sphere in, so that the lowest foot stands rather than
+// hovers. For simulations on spheres that follow a recorded trial.
 double ground_height_under_feet(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q_samples);
 
 // The velocity of whatever the recorded feet stand on: the median horizontal velocity of the lowest
