@@ -8,6 +8,8 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/json_input.h"
 #include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/dynamics/contact.h"
+#include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/model/osim_reader.h"
@@ -17,7 +19,7 @@ namespace cpgait::services {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const std::vector<std::string> kStages = {"ik", "id", "so", "cpg"};
+const std::vector<std::string> kStages = {"ik", "id", "so", "cpg", "gait"};
 
 namespace {
 
@@ -107,7 +109,7 @@ PipelineOptions PipelineOptions::parse(const std::string& text, const std::strin
 
 PipelineOptions PipelineOptions::from_json(const json& j, const std::string& source) {
   PipelineOptions o;
-  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "cpg", "capture", "inputs"}, source, "");
+  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "cpg", "gait", "capture", "inputs"}, source, "");
   if (j.contains("model")) {
     if (!j["model"].is_string()) bad(source, "model", "expected a model id string");
     o.model_id = j["model"].get<std::string>();
@@ -117,7 +119,7 @@ PipelineOptions PipelineOptions::from_json(const json& j, const std::string& sou
     o.stages.clear();
     for (const auto& s : j["stages"]) {
       if (!s.is_string() || std::find(kStages.begin(), kStages.end(), s.get<std::string>()) == kStages.end())
-        bad(source, "stages", "unknown stage " + s.dump() + " (stages: ik, id, so, cpg)");
+        bad(source, "stages", "unknown stage " + s.dump() + " (stages: ik, id, so, cpg, gait)");
       o.stages.push_back(s.get<std::string>());
     }
     // A stage needs the ones before it.
@@ -160,6 +162,16 @@ PipelineOptions PipelineOptions::from_json(const json& j, const std::string& sou
       o.so_physiology = so["use_muscle_physiology"].get<bool>();
     }
     o.so_cutoff_hz = number(so, "lowpass_cutoff_hz", o.so_cutoff_hz, source, "so.lowpass_cutoff_hz");
+  }
+  if (j.contains("gait")) {
+    const auto& g = j["gait"];
+    only_keys(g, {"duration_s", "residuals"}, source, "gait.");
+    o.gait_duration_s = number(g, "duration_s", o.gait_duration_s, source, "gait.duration_s");
+    if (g.contains("duration_s") && !(o.gait_duration_s > 0 && o.gait_duration_s <= 30)) bad(source, "gait.duration_s", "expected 0 to 30 s");
+    if (g.contains("residuals")) {
+      if (!g["residuals"].is_boolean()) bad(source, "gait.residuals", "expected true or false");
+      o.gait_residuals = g["residuals"].get<bool>();
+    }
   }
   if (j.contains("cpg")) {
     const auto& c = j["cpg"];
@@ -211,6 +223,8 @@ json PipelineOptions::to_json() const {
   j["id"]["lowpass_cutoff_hz"] = id_cutoff_hz;
   j["so"] = {{"activation_exponent", so_exponent}, {"use_muscle_physiology", so_physiology}, {"lowpass_cutoff_hz", so_cutoff_hz}};
   j["cpg"] = {{"pairs", cpg_pairs}, {"pattern_units", cpg_pattern_units}};
+  j["gait"] = {{"residuals", gait_residuals}};
+  if (gait_duration_s > 0) j["gait"]["duration_s"] = gait_duration_s;
   if (!cpg_foot.empty()) j["cpg"]["foot"] = cpg_foot;
   j["capture"] = {{"max_reprojection_px", capture.triangulation.max_reprojection_error_px},
                   {"gap_fill_s", capture.max_gap_fill_s},
@@ -378,6 +392,8 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     if (observer) observer->stage_finished("so", timer.seconds(), summary);
   }
   // CPG: fitted to the SO activations over the gait cycles of one foot.
+  std::optional<CpgModel> fitted_cpg;
+  std::vector<double> cpg_strikes;
   if (options.wants("cpg")) {
     StageTimer timer(observer, "cpg");
     json summary;
@@ -410,6 +426,8 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
       fo.pattern_units = options.cpg_pattern_units;
       const Eigen::MatrixXd cycle = cycle_average(so_result.time_s, so_result.controls.leftCols(nm), strikes, fo.phase_samples);
       const CpgFitResult fit = fit_cpg(cycle, cycle_s, names, fo);
+      fitted_cpg = fit.model;
+      cpg_strikes = strikes;
       write_text_atomic((fs::path(out_dir) / (in.name + "_cpg.json")).string(), fit.model.to_json().dump(2) + "\n");
       result.files.push_back(in.name + "_cpg.json");
       std::vector<double> phase_time;
@@ -432,6 +450,49 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     }
     result.summary["cpg"] = summary;
     if (observer) observer->stage_finished("cpg", timer.seconds(), summary);
+  }
+  // The reproduced gait: the fitted CPG drives the muscles on contact spheres.
+  if (options.wants("gait")) {
+    StageTimer timer(observer, "gait");
+    json summary;
+    ContactSet feet = default_foot_contacts(model);
+    const double cycle_s = fitted_cpg ? fitted_cpg->cycle_s : 0;
+    double start = -1;
+    for (double s : cpg_strikes)
+      if (fitted_cpg && !ik_time.empty() && s + fitted_cpg->phase_at_start * cycle_s >= ik_time.front()) {
+        start = s;
+        break;
+      }
+    const double tau0 = start + (fitted_cpg ? fitted_cpg->phase_at_start * cycle_s : 0);
+    const double available = ik_time.empty() ? 0 : ik_time.back() - tau0;
+    const double duration = options.gait_duration_s > 0 ? options.gait_duration_s : std::min(2 * cycle_s, available);
+    if (!fitted_cpg) {
+      summary["not_run"] = "no CPG was fitted in this run (see the cpg stage)";
+    } else if (feet.spheres.empty()) {
+      summary["not_run"] = "the model has no calcn_/toes_ or foot_ bodies for contact spheres";
+    } else if (start < 0 || available < 0.5 * cycle_s) {
+      summary["not_run"] = "the trial has less than half a gait cycle after its first usable heel strike";
+    } else {
+      const Storage ik = make_storage("ik", coordinate_names(model), ik_time, ik_q, false);
+      feet.ground_height_m = ground_height_under_feet(model, feet, ik_q);
+      feet.ground_velocity_m_s = ground_velocity_under_feet(model, feet, ik_time, ik_q);
+      ReproducedGaitOptions go;
+      go.start_time_s = start;
+      go.duration_s = duration;
+      go.pelvis_residuals = options.gait_residuals;
+      StageProgress progress(observer, "gait");
+      const ReproducedGaitResult g = reproduce_gait(model, *fitted_cpg, ik, feet, go, &progress);
+      write(reproduced_gait_motion_table(model, g), in.name + "_gait.mot");
+      write(reproduced_gait_residual_table(g), in.name + "_gait_residuals.sto");
+      write(reproduced_gait_contact_table(g), in.name + "_gait_contact_forces.sto");
+      summary = reproduced_gait_metrics(model, g);
+      summary["reference_start_s"] = tau0;
+      summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
+      write_text_atomic((fs::path(out_dir) / (in.name + "_gait.json")).string(), summary.dump(2) + "\n");
+      result.files.push_back(in.name + "_gait.json");
+    }
+    result.summary["gait"] = summary;
+    if (observer) observer->stage_finished("gait", timer.seconds(), summary);
   }
   write_text_atomic((fs::path(out_dir) / "job.json").string(), options.to_json().dump(2) + "\n");
   result.files.push_back("job.json");

@@ -25,13 +25,16 @@ namespace cpgait::services {
 //    "cpg": {"pairs": 2, "pattern_units": 2, "foot": "calcn_r"}   a CPG fitted to the SO activations
 //                                     over the gait cycles of one foot: heel strikes from the GRF's first
 //                                     vertical force (ground_force_vy), else from kinematics (Zeni 2008)
+//    "gait": {"duration_s": 2 cycles, "residuals": true}   the reproduced gait (solver/gait): the fitted
+//                                     CPG drives the muscles on contact spheres from the first heel
+//                                     strike; needs the cpg stage
 //    "capture": {"max_reprojection_px": 2, "gap_fill_s": 0.05, "single_view": true,
 //                "sync": "index"|"time", "decimate": 3}    only with AprilTag footage (a "capture"
 //                                     stage then runs first and its markers feed IK)
 //    "inputs": {"model","markers","grf","loads": paths}   cpgait run only: what it ran on}
 struct PipelineOptions {
   std::string model_id;
-  std::vector<std::string> stages = {"ik", "id", "so", "cpg"};
+  std::vector<std::string> stages = {"ik", "id", "so", "cpg", "gait"};
   std::optional<std::pair<double, double>> time_range_s;
   IkOptions::Bounds ik_bounds = IkOptions::Bounds::kClampedOnly;
   std::optional<nlohmann::json> ik_tasks;
@@ -43,6 +46,8 @@ struct PipelineOptions {
   int cpg_pairs = 2;
   int cpg_pattern_units = 2;
   std::string cpg_foot;  // empty: calcn_r, else foot_r
+  double gait_duration_s = -1;  // negative: two gait cycles (or what the trial has after the start)
+  bool gait_residuals = true;
   nlohmann::json inputs = nlohmann::json::object();
 
   // Throws InputError naming the JSON field ("ik.bounds", ...) for anything invalid or unknown.

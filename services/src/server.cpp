@@ -65,6 +65,7 @@ const std::map<std::string, std::vector<std::string>> kStageFiles = {
     {"id", {"_id.sto"}},
     {"so", {"_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"}},
     {"cpg", {"_cpg_target.sto", "_cpg_fitted.sto", "_cpg_neurons.sto"}},
+    {"gait", {"_gait.mot", "_gait_residuals.sto"}},
     {"capture", {"_capture_quality.sto"}}};
 
 class Api {

@@ -142,6 +142,11 @@ try {
         neurons: window.__cpgait.plots.cpgNeurons && window.__cpgait.plots.cpgNeurons.series.length }));
       assert.equal(cpg.fit, 1 + 2 * 4);
       assert.equal(cpg.neurons, 1 + 4);  // two rhythm pairs
+      // The reproduced gait: three coordinates, measured and simulated each; six pelvis residuals.
+      const gait = await page.evaluate(() => ({ angles: window.__cpgait.plots.gait && window.__cpgait.plots.gait.series.length,
+        residuals: window.__cpgait.plots.gaitResiduals && window.__cpgait.plots.gaitResiduals.series.length }));
+      assert.equal(gait.angles, 1 + 2 * 3);
+      assert.equal(gait.residuals, 1 + 6);
     }
   });
 

@@ -121,7 +121,7 @@ async function uploadView() {
     row('Loads (.xml)', h('input', { type: 'file', id: 'loads', name: 'loads', accept: '.xml' }), 'loads'),
     row('Model', h('select', { id: 'model', name: 'model' }, models.map((m) => h('option', { value: m.id }, `${m.name} (${m.summary.coordinates} coordinates, ${m.summary.muscles} muscles)`))), 'model'),
     row('Time range (s)', h('span', {}, h('input', { type: 'number', step: 'any', id: 't0', placeholder: 'start' }), ' – ', h('input', { type: 'number', step: 'any', id: 't1', placeholder: 'end' })), 'time_range'),
-    row('Stages', h('span', {}, ['ik', 'id', 'so', 'cpg'].map((s) => h('label', {}, h('input', { type: 'checkbox', name: 'stage', value: s, checked: true }), ` ${s.toUpperCase()} `))), 'stages'),
+    row('Stages', h('span', {}, ['ik', 'id', 'so', 'cpg', 'gait'].map((s) => h('label', {}, h('input', { type: 'checkbox', name: 'stage', value: s, checked: true }), ` ${s.toUpperCase()} `))), 'stages'),
     h('div', { class: 'form-error', id: 'form-error' }),
     h('button', { type: 'submit' }, 'Upload and run'));
   const modelUpload = h('form', { id: 'model-upload' },
@@ -198,10 +198,12 @@ async function trialView(id) {
   const done = (s) => (trial.stages.find((x) => x.name === s) || {}).state === 'done';
   const cpgSummary = (trial.stages.find((x) => x.name === 'cpg') || {}).summary || {};
   const cpgFitted = done('cpg') && cpgSummary.mean_r_squared_active !== undefined;
-  const [kin, ik, id_, so, cpg] = await Promise.all([
+  const gaitSummary = (trial.stages.find((x) => x.name === 'gait') || {}).summary || {};
+  const gaitRan = done('gait') && gaitSummary.reference_start_s !== undefined;
+  const [kin, ik, id_, so, cpg, gait] = await Promise.all([
     api(`/trials/${id}/kinematics`), api(`/trials/${id}/results/ik`),
     done('id') ? api(`/trials/${id}/results/id`) : null, done('so') ? api(`/trials/${id}/results/so`) : null,
-    cpgFitted ? api(`/trials/${id}/results/cpg`) : null]);
+    cpgFitted ? api(`/trials/${id}/results/cpg`) : null, gaitRan ? api(`/trials/${id}/results/gait`) : null]);
   const coords = ik.tables[0], errors = ik.tables[1];
   const time = coords.columns[0];
   const n = kin.frames.length;
@@ -325,7 +327,38 @@ async function trialView(id) {
   } else {
     card('CPG outputs vs fitted excitations', h('p', { class: 'muted' }, cpgSummary.not_fitted ? `Not fitted: ${cpgSummary.not_fitted}.` : 'Not computed for this trial (the CPG stage was not run).'));
   }
-  card('Reproduced gait vs measured', h('p', { class: 'muted' }, 'Not computed for this trial: the reproduced-gait stage is not available yet.'));
+  if (gait) {
+    // The simulated motion (solid) against the trial's (dashed) from the simulation's start, a heel
+    // strike; the playhead is the trial's time since then.
+    const sim = gait.tables[0], residuals = gait.tables[1];
+    const simT = sim.columns[0], t0 = gaitSummary.reference_start_s;
+    const names = sim.labels.slice(1).filter((c) => !/^pelvis_t[xyz]$/.test(c));
+    const sel = h('select', { multiple: true, id: 'gait-select' }, names.map((c) => h('option', { value: c, selected: /^(hip_flexion_r|knee_angle_r|ankle_angle_r)$/.test(c) }, c)));
+    const box = h('div', { id: 'plot-gait' }), rbox = h('div', { id: 'plot-gait-residuals' });
+    const rms = gaitSummary.tracking_rms_deg_or_m || {};
+    const fell = gaitSummary.fell_at_s !== null && gaitSummary.fell_at_s !== undefined ? `fell at ${gaitSummary.fell_at_s.toFixed(2)} s` : 'did not fall';
+    card('Reproduced gait vs measured',
+      h('div', { class: 'muted' }, `${simT[simT.length - 1].toFixed(2)} s simulated on contact spheres from ${t0.toFixed(3)} s; stride ${gaitSummary.stride_time_s.toFixed(3)} s, ${gaitSummary.stride_length_m.toFixed(2)} m, ${gaitSummary.speed_m_s.toFixed(2)} m/s; pelvis residual force ${gaitSummary.pelvis_residual_force_percent_bw.toFixed(1)} % body weight; ${fell}`),
+      h('div', { class: 'controls' }, sel), box, rbox);
+    const since = () => time[frame] - t0;
+    const draw = () => {
+      box.replaceChildren();
+      const series = [];
+      [...sel.selectedOptions].map((o) => o.value).forEach((c, i) => {
+        const measured = column(coords, c);
+        const values = simT.map((t) => { const tt = t0 + t; let k = time.findIndex((x) => x >= tt - 1e-9); return k < 0 || !measured ? null : measured[k]; });
+        series.push({ label: `${c} measured`, values, dash: [4, 3], color: COLORS[i % COLORS.length] });
+        series.push({ label: `${c} simulated (RMS ${(rms[c] ?? 0).toFixed(1)}°)`, values: column(sim, c), color: COLORS[i % COLORS.length] });
+      });
+      window.__cpgait.plots.gait = linePlot(box, simT, series, 'angle (deg), time since the start (s)', since);
+    };
+    sel.addEventListener('change', draw);
+    draw();
+    window.__cpgait.plots.gaitResiduals = linePlot(rbox, residuals.columns[0], residuals.labels.slice(1).map((l) => ({ label: l, values: column(residuals, l) })),
+      'pelvis residual (N·m, N), time since the start (s)', since);
+  } else {
+    card('Reproduced gait vs measured', h('p', { class: 'muted' }, gaitSummary.not_run ? `Not run: ${gaitSummary.not_run}.` : 'Not computed for this trial (the gait stage was not run).'));
+  }
   app.append(h('div', { class: 'card files' }, h('h2', {}, 'Result files'), (trial.files || []).map((f) => h('a', { href: `/api/v1/trials/${id}/files/${f}`, download: f }, f))));
 
   // Playback.
