@@ -7,6 +7,9 @@
 #include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/dynamics/forward_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
+#include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/gait/reproduced_gait.h"
+#include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
 
 using namespace cpgait;
@@ -89,3 +92,40 @@ static void BM_CmcSubject01(benchmark::State& state) {
   state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_CmcSubject01)->Unit(benchmark::kSecond)->Iterations(2);
+
+// The reproduced gait on subject01, one thread: a CPG fitted to OpenSim 4.1's static-optimization
+// activations drives the muscles on contact spheres for two gait cycles. Counter: simulated seconds
+// per wall-clock second (the target: 10).
+static void BM_ReproducedGaitSubject01(benchmark::State& state) {
+  const std::string pl = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
+  const std::string so = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim41-here/SO/subject01_walk1_StaticOptimization_activation.sto";
+  const std::string ik = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim41-here/IK/subject01_walk1_ik.mot";
+  if (!std::filesystem::exists(so) || !std::filesystem::exists(ik)) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim41-here");
+    return;
+  }
+  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
+  const Storage act = read_storage(so), grf = read_storage(pl + "subject01_walk1_grf.mot"), kin = read_storage(ik);
+  const std::vector<double> strikes = contact_onsets(grf.time(), grf.data.col(grf.column("ground_force_vy")));
+  const Eigen::VectorXd t = act.time();
+  const std::vector<double> time(t.data(), t.data() + t.size());
+  std::vector<std::string> names;
+  Eigen::MatrixXd patterns(act.num_rows(), m.muscles.size());
+  for (std::size_t k = 0; k < m.muscles.size(); ++k) {
+    names.push_back(m.muscles[k].name);
+    patterns.col(k) = act.data.col(act.column(m.muscles[k].name));
+  }
+  const double cycle_s = mean_cycle_duration(time, strikes);
+  const CpgFitResult fit = fit_cpg(cycle_average(time, patterns, strikes, 100), cycle_s, names);
+  const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
+  ContactSet feet = default_foot_contacts(m);
+  feet.ground_height_m = ground_height_under_feet(m, feet, k.q);
+  feet.ground_velocity_m_s = ground_velocity_under_feet(m, feet, k.time_s, k.q);
+  ReproducedGaitOptions o;
+  o.start_time_s = heel_strikes_zeni(m, k.time_s, k.q, "calcn_r").front();
+  o.duration_s = 2 * cycle_s;
+  double simulated = 0;
+  for (auto _ : state) simulated += reproduce_gait(m, fit.model, kin, feet, o).time_s.back();
+  state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ReproducedGaitSubject01)->Unit(benchmark::kSecond)->Iterations(2);
