@@ -28,26 +28,38 @@ struct SoInputs {
   StaticOptimizationOptions options;
 };
 
-void run_so(const SoInputs& in) {
-  OsimReadResult mr = read_osim(in.model);
-  print_warnings(mr.warnings);
-  std::vector<ActuatorSpec> specs;
-  if (in.replace_force_set) {
-    mr.model.muscles.clear();  // OpenSim replaces the whole force set, muscles included
-  } else if (in.use_model_actuators) {
-    specs = read_actuators(in.model);
-  }
-  for (const auto& f : in.actuator_files) {
-    auto more = read_actuators(f);
-    specs.insert(specs.end(), more.begin(), more.end());
-  }
-  const ResolvedActuators actuators(mr.model, specs);
+// What so, cmc and forward all read: the model (muscles dropped when the actuator files replace its
+// force set, as OpenSim does), its actuators plus those of the files, and the external loads.
+struct DynamicsInputs {
+  OsimReadResult model;
+  std::vector<ActuatorSpec> actuators;
   std::unique_ptr<AppliedLoads> loads;
-  if (!in.loads.empty()) {
-    const ExternalLoadsSpec spec = read_external_loads(in.loads);
-    const std::string data = !in.grf.empty() ? in.grf : resolve_setup_file(spec.setup_dir, spec.datafile, in.loads, "datafile");
-    loads = std::make_unique<AppliedLoads>(mr.model, spec, read_storage(data));
+};
+DynamicsInputs read_dynamics_inputs(const std::string& model, const std::vector<std::string>& actuator_files,
+                                    bool use_model_actuators, bool replace_force_set, const std::string& loads,
+                                    const std::string& grf) {
+  DynamicsInputs d;
+  d.model = read_osim(model);
+  print_warnings(d.model.warnings);
+  if (replace_force_set) d.model.model.muscles.clear();
+  else if (use_model_actuators) d.actuators = read_actuators(model);
+  for (const auto& f : actuator_files) {
+    auto more = read_actuators(f);
+    d.actuators.insert(d.actuators.end(), more.begin(), more.end());
   }
+  if (!loads.empty()) {
+    const ExternalLoadsSpec spec = read_external_loads(loads);
+    const std::string data = !grf.empty() ? grf : resolve_setup_file(spec.setup_dir, spec.datafile, loads, "datafile");
+    d.loads = std::make_unique<AppliedLoads>(d.model.model, spec, read_storage(data));
+  }
+  return d;
+}
+
+void run_so(const SoInputs& in) {
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, in.use_model_actuators, in.replace_force_set, in.loads, in.grf);
+  OsimReadResult& mr = d.model;
+  const ResolvedActuators actuators(mr.model, d.actuators);
+  const std::unique_ptr<AppliedLoads>& loads = d.loads;
   const StaticOptimizationResult r =
       static_optimization(mr.model, read_storage(in.coordinates), loads.get(), actuators, in.options);
   print_warnings(r.summary.warnings);
@@ -70,22 +82,10 @@ struct CmcInputs {
 };
 
 void run_cmc(const CmcInputs& in) {
-  OsimReadResult mr = read_osim(in.model);
-  print_warnings(mr.warnings);
-  std::vector<ActuatorSpec> specs;
-  if (in.replace_force_set) mr.model.muscles.clear();
-  else specs = read_actuators(in.model);
-  for (const auto& f : in.actuator_files) {
-    auto more = read_actuators(f);
-    specs.insert(specs.end(), more.begin(), more.end());
-  }
-  const ResolvedActuators actuators(mr.model, specs);
-  std::unique_ptr<AppliedLoads> loads;
-  if (!in.loads.empty()) {
-    const ExternalLoadsSpec spec = read_external_loads(in.loads);
-    const std::string data = !in.grf.empty() ? in.grf : resolve_setup_file(spec.setup_dir, spec.datafile, in.loads, "datafile");
-    loads = std::make_unique<AppliedLoads>(mr.model, spec, read_storage(data));
-  }
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf);
+  OsimReadResult& mr = d.model;
+  const ResolvedActuators actuators(mr.model, d.actuators);
+  const std::unique_ptr<AppliedLoads>& loads = d.loads;
   std::optional<ContactSet> contacts;
   if (!loads && !in.no_contact) contacts = in.contacts.empty() ? default_foot_contacts(mr.model) : read_contact_set(in.contacts, mr.model);
   if (contacts && contacts->spheres.empty())
@@ -126,22 +126,10 @@ struct ForwardInputs {
 };
 
 void run_forward(const ForwardInputs& in) {
-  OsimReadResult mr = read_osim(in.model);
-  print_warnings(mr.warnings);
-  std::vector<ActuatorSpec> specs;
-  if (in.replace_force_set) mr.model.muscles.clear();
-  else specs = read_actuators(in.model);
-  for (const auto& f : in.actuator_files) {
-    auto more = read_actuators(f);
-    specs.insert(specs.end(), more.begin(), more.end());
-  }
-  const ResolvedActuators actuators(mr.model, specs);
-  std::unique_ptr<AppliedLoads> loads;
-  if (!in.loads.empty()) {
-    const ExternalLoadsSpec spec = read_external_loads(in.loads);
-    const std::string data = !in.grf.empty() ? in.grf : resolve_setup_file(spec.setup_dir, spec.datafile, in.loads, "datafile");
-    loads = std::make_unique<AppliedLoads>(mr.model, spec, read_storage(data));
-  }
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf);
+  OsimReadResult& mr = d.model;
+  const ResolvedActuators actuators(mr.model, d.actuators);
+  const std::unique_ptr<AppliedLoads>& loads = d.loads;
   std::optional<ContactSet> contacts;
   if (!loads && !in.no_contact) contacts = in.contacts.empty() ? default_foot_contacts(mr.model) : read_contact_set(in.contacts, mr.model);
   std::vector<std::string> missing, warnings;

@@ -59,15 +59,8 @@ DormandPrinceSummary integrate_dormand_prince(const OdeFunction& f, double t0, d
     f(t + h, y_new, k7);
     s.evaluations += 6;
     err = h * (e1 * k1 + e3 * k3 + e4 * k4 + e5 * k5 + e6 * k6 + e7 * k7);
-    double norm = 0;
-    for (long i = 0; i < n; ++i) {
-      const double scale = o.absolute_tolerance + o.relative_tolerance * std::max(std::abs(x[i]), std::abs(y_new[i]));
-      norm += (err[i] / scale) * (err[i] / scale);
-    }
-    norm = std::sqrt(norm / std::max<long>(1, n));
-    if (!std::isfinite(norm)) norm = 1e10;
+    const double norm = scaled_rms_error(err, x, y_new, o.relative_tolerance, o.absolute_tolerance);
     if (norm <= 1.0) {
-      ++s.accepted_steps;
       t = last ? t1 : t + h;
       x = y_new;
       k1 = k7;  // first same as last
@@ -75,20 +68,39 @@ DormandPrinceSummary integrate_dormand_prince(const OdeFunction& f, double t0, d
       double factor = 0.9 * std::pow(norm, -0.17) * std::pow(err_previous, 0.04);
       factor = std::clamp(norm == 0 ? 10.0 : factor, 0.2, 10.0);
       err_previous = std::max(norm, 1e-4);
-      if (!last) h = std::min(h * factor, o.max_step_s);
-      else s.last_step_s = std::min(std::max(h * factor, h_unclipped), o.max_step_s);  // not the clipped step
-    } else {
-      ++s.rejected_steps;
-      h *= std::max(0.2, 0.9 * std::pow(norm, -0.2));
-      if (h < o.min_step_s) {
-        s.success = false;
-        s.message = "the step size fell below the minimum (" + std::to_string(o.min_step_s) + " s) at t = " + std::to_string(t) + " s";
-        break;
-      }
+      next_step_after_accept(h, factor, last, h_unclipped, o.max_step_s, s);
+    } else if (!next_step_after_reject(h, std::max(0.2, 0.9 * std::pow(norm, -0.2)), o.min_step_s, t, s)) {
+      break;
     }
   }
   if (s.last_step_s == 0) s.last_step_s = h;
   return s;
+}
+
+double scaled_rms_error(const Eigen::VectorXd& err, const Eigen::VectorXd& x, const Eigen::VectorXd& x_new, double rtol,
+                        double atol) {
+  double norm = 0;
+  for (Eigen::Index i = 0; i < err.size(); ++i) {
+    const double scale = atol + rtol * std::max(std::abs(x[i]), std::abs(x_new[i]));
+    norm += (err[i] / scale) * (err[i] / scale);
+  }
+  norm = std::sqrt(norm / std::max<Eigen::Index>(1, err.size()));
+  return std::isfinite(norm) ? norm : 1e10;
+}
+
+void next_step_after_accept(double& h, double factor, bool last, double h_unclipped, double max_step_s, DormandPrinceSummary& s) {
+  ++s.accepted_steps;
+  if (!last) h = std::min(h * factor, max_step_s);
+  else s.last_step_s = std::min(std::max(h * factor, h_unclipped), max_step_s);
+}
+
+bool next_step_after_reject(double& h, double factor, double min_step_s, double t, DormandPrinceSummary& s) {
+  ++s.rejected_steps;
+  h *= factor;
+  if (h >= min_step_s) return true;
+  s.success = false;
+  s.message = "the step size fell below the minimum (" + std::to_string(min_step_s) + " s) at t = " + std::to_string(t) + " s";
+  return false;
 }
 
 }  // namespace cpgait

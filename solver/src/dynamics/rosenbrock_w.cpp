@@ -42,31 +42,17 @@ DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepar
     rhs = f1 - 2.0 * k1;
     solve(gamma * h, rhs, k2);
     // Error: the difference to the first-order solution x + h k1.
-    double norm = 0;
-    for (long i = 0; i < n; ++i) {
-      const double x_new = x[i] + 1.5 * h * k1[i] + 0.5 * h * k2[i];
-      const double e = 0.5 * h * (k1[i] + k2[i]);
-      const double scale = o.absolute_tolerance + o.relative_tolerance * std::max(std::abs(x[i]), std::abs(x_new));
-      norm += (e / scale) * (e / scale);
-    }
-    norm = std::sqrt(norm / std::max<long>(1, n));
-    if (!std::isfinite(norm)) norm = 1e10;
+    y = x + 1.5 * h * k1 + 0.5 * h * k2;
+    rhs = 0.5 * h * (k1 + k2);
+    const double norm = scaled_rms_error(rhs, x, y, o.relative_tolerance, o.absolute_tolerance);
     const double factor = std::clamp(0.9 / std::sqrt(std::max(norm, 1e-10)), 0.2, 5.0);
     if (norm <= 1.0) {
-      ++s.accepted_steps;
-      x += 1.5 * h * k1 + 0.5 * h * k2;
+      x = y;
       t = last ? t1 : t + h;
       prepared = false;
-      if (!last) h = std::min(h * factor, o.max_step_s);
-      else s.last_step_s = std::min(std::max(h * factor, h_unclipped), o.max_step_s);  // not the clipped step
-    } else {
-      ++s.rejected_steps;
-      h *= factor;
-      if (h < o.min_step_s) {
-        s.success = false;
-        s.message = "the step size fell below the minimum (" + std::to_string(o.min_step_s) + " s) at t = " + std::to_string(t) + " s";
-        break;
-      }
+      next_step_after_accept(h, factor, last, h_unclipped, o.max_step_s, s);
+    } else if (!next_step_after_reject(h, factor, o.min_step_s, t, s)) {
+      break;
     }
   }
   if (s.last_step_s == 0) s.last_step_s = h;

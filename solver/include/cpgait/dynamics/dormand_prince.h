@@ -37,4 +37,15 @@ using OdeFunction = std::function<void(double t, const Eigen::VectorXd& x, Eigen
 DormandPrinceSummary integrate_dormand_prince(const OdeFunction& f, double t0, double t1, Eigen::VectorXd& x,
                                               const DormandPrinceOptions& options = {});
 
+// Shared by the integrators' step control (rosenbrock_w.h too):
+// RMS over the states of err_i / (atol + rtol max(|x_i|, |x_new_i|)); a non-finite error counts as huge.
+double scaled_rms_error(const Eigen::VectorXd& err, const Eigen::VectorXd& x, const Eigen::VectorXd& x_new,
+                        double relative_tolerance, double absolute_tolerance);
+// After an accepted step: the next step (or, after the last step of the call, the one to start the
+// next call with: never the clipped last step itself).
+void next_step_after_accept(double& h, double factor, bool last, double h_unclipped, double max_step_s,
+                            DormandPrinceSummary& s);
+// After a rejected step: shrink by factor; false (with the summary's message) below min_step_s.
+bool next_step_after_reject(double& h, double factor, double min_step_s, double t, DormandPrinceSummary& s);
+
 }  // namespace cpgait
