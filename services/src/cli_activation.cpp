@@ -29,15 +29,18 @@ struct SoInputs {
 };
 
 // What so, cmc and forward all read: the model (muscles dropped when the actuator files replace its
-// force set, as OpenSim does), its actuators plus those of the files, and the external loads.
+// force set, as OpenSim does), its actuators plus those of the files, the external loads, and -
+// when asked for and there are no loads - contact spheres (the file's, else two per foot).
 struct DynamicsInputs {
   OsimReadResult model;
   std::vector<ActuatorSpec> actuators;
   std::unique_ptr<AppliedLoads> loads;
+  std::optional<ContactSet> contacts;
 };
 DynamicsInputs read_dynamics_inputs(const std::string& model, const std::vector<std::string>& actuator_files,
                                     bool use_model_actuators, bool replace_force_set, const std::string& loads,
-                                    const std::string& grf) {
+                                    const std::string& grf, bool contacts_without_loads = false,
+                                    const std::string& contacts_file = "") {
   DynamicsInputs d;
   d.model = read_osim(model);
   print_warnings(d.model.warnings);
@@ -51,6 +54,11 @@ DynamicsInputs read_dynamics_inputs(const std::string& model, const std::vector<
     const ExternalLoadsSpec spec = read_external_loads(loads);
     const std::string data = !grf.empty() ? grf : resolve_setup_file(spec.setup_dir, spec.datafile, loads, "datafile");
     d.loads = std::make_unique<AppliedLoads>(d.model.model, spec, read_storage(data));
+  }
+  if (!d.loads && contacts_without_loads) {
+    d.contacts = contacts_file.empty() ? default_foot_contacts(d.model.model) : read_contact_set(contacts_file, d.model.model);
+    if (d.contacts->spheres.empty())
+      throw InputError(model, 0, "contacts", "no GRF was given and the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --loads or --contacts");
   }
   return d;
 }
@@ -82,14 +90,11 @@ struct CmcInputs {
 };
 
 void run_cmc(const CmcInputs& in) {
-  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf);
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf, !in.no_contact, in.contacts);
   OsimReadResult& mr = d.model;
   const ResolvedActuators actuators(mr.model, d.actuators);
   const std::unique_ptr<AppliedLoads>& loads = d.loads;
-  std::optional<ContactSet> contacts;
-  if (!loads && !in.no_contact) contacts = in.contacts.empty() ? default_foot_contacts(mr.model) : read_contact_set(in.contacts, mr.model);
-  if (contacts && contacts->spheres.empty())
-    throw InputError(in.model, 0, "contacts", "no GRF was given and the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --loads or --contacts");
+  const std::optional<ContactSet>& contacts = d.contacts;
   const std::vector<CmcJointTask> tasks = read_cmc_tasks(in.tasks);
   std::optional<ControlSetSpec> constraints;
   if (!in.constraints.empty()) constraints = read_control_set(in.constraints);
@@ -126,12 +131,11 @@ struct ForwardInputs {
 };
 
 void run_forward(const ForwardInputs& in) {
-  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf);
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf, !in.no_contact, in.contacts);
   OsimReadResult& mr = d.model;
   const ResolvedActuators actuators(mr.model, d.actuators);
   const std::unique_ptr<AppliedLoads>& loads = d.loads;
-  std::optional<ContactSet> contacts;
-  if (!loads && !in.no_contact) contacts = in.contacts.empty() ? default_foot_contacts(mr.model) : read_contact_set(in.contacts, mr.model);
+  const std::optional<ContactSet>& contacts = d.contacts;
   std::vector<std::string> missing, warnings;
   const bool xml = in.controls.size() > 4 && in.controls.compare(in.controls.size() - 4, 4, ".xml") == 0;
   const ControlHistory controls =

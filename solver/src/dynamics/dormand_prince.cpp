@@ -34,17 +34,9 @@ DormandPrinceSummary integrate_dormand_prince(const OdeFunction& f, double t0, d
   ++s.evaluations;
   double err_previous = 1e-4;  // PI controller memory
   while (t < t1) {
-    if (s.accepted_steps + s.rejected_steps >= o.max_steps) {
-      s.success = false;
-      s.message = "too many integrator steps";
-      break;
-    }
-    bool last = false;
     const double h_unclipped = h;
-    if (t + h >= t1 - 1e-12 * std::max(1.0, std::abs(t1))) {
-      h = t1 - t;
-      last = true;
-    }
+    bool last = false;
+    if (!begin_step(t, t1, o.max_steps, h, last, s)) break;
     y = x + h * a21 * k1;
     f(t + c2 * h, y, k2);
     y = x + h * (a31 * k1 + a32 * k2);
@@ -75,6 +67,17 @@ DormandPrinceSummary integrate_dormand_prince(const OdeFunction& f, double t0, d
   }
   if (s.last_step_s == 0) s.last_step_s = h;
   return s;
+}
+
+bool begin_step(double t, double t1, long max_steps, double& h, bool& last, DormandPrinceSummary& s) {
+  if (s.accepted_steps + s.rejected_steps >= max_steps) {
+    s.success = false;
+    s.message = "too many integrator steps";
+    return false;
+  }
+  last = t + h >= t1 - 1e-12 * std::max(1.0, std::abs(t1));
+  if (last) h = t1 - t;
+  return true;
 }
 
 double scaled_rms_error(const Eigen::VectorXd& err, const Eigen::VectorXd& x, const Eigen::VectorXd& x_new, double rtol,

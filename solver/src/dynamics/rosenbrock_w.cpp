@@ -19,17 +19,9 @@ DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepar
   }
   bool prepared = false;
   while (t < t1) {
-    if (s.accepted_steps + s.rejected_steps >= o.max_steps) {
-      s.success = false;
-      s.message = "too many integrator steps";
-      break;
-    }
-    bool last = false;
     const double h_unclipped = h;
-    if (t + h >= t1 - 1e-12 * std::max(1.0, std::abs(t1))) {
-      h = t1 - t;
-      last = true;
-    }
+    bool last = false;
+    if (!begin_step(t, t1, o.max_steps, h, last, s)) break;
     if (!prepared) {
       prepare(t, x, f0);
       ++s.evaluations;

@@ -38,6 +38,9 @@ DormandPrinceSummary integrate_dormand_prince(const OdeFunction& f, double t0, d
                                               const DormandPrinceOptions& options = {});
 
 // Shared by the integrators' step control (rosenbrock_w.h too):
+// Before a step from t: false (with the summary's message) past max_steps; the step is clipped to
+// end exactly at t1, and `last` says so.
+bool begin_step(double t, double t1, long max_steps, double& h, bool& last, DormandPrinceSummary& s);
 // RMS over the states of err_i / (atol + rtol max(|x_i|, |x_new_i|)); a non-finite error counts as huge.
 double scaled_rms_error(const Eigen::VectorXd& err, const Eigen::VectorXd& x, const Eigen::VectorXd& x_new,
                         double relative_tolerance, double absolute_tolerance);
