@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "cpgait/model/model.h"
+#include "cpgait/model/osim_reader.h"
 
 namespace cpgait::refdata {
 
@@ -20,6 +21,12 @@ inline std::string shared_path(const std::string& relative) {
 inline std::string gait2392(const std::string& relative) { return shared_path("opensim/gait2392/" + relative); }
 inline std::string fixture(const std::string& relative) {
   return std::string(CPGAIT_FIXTURES_DIR) + "/" + relative;
+}
+
+// cpgait's own model (fixtures/models/walker.osim), read once.
+inline const Model& walker() {
+  static const Model m = read_osim(fixture("models/walker.osim")).model;
+  return m;
 }
 
 // A fresh, empty folder under the system temp directory, unique to this process.

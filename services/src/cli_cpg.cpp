@@ -182,10 +182,10 @@ void add_cpg_commands(CLI::App& app) {
       throw InputError(g->model, 0, "contacts", "the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --contacts");
     ReproducedGaitOptions o = g->options;
     o.pelvis_residuals = !g->no_residuals;
+    const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
     if (g->start >= 0) {
       o.start_time_s = g->start;
     } else {
-      const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
       const std::string foot = model.body_index("calcn_r") >= 0 ? "calcn_r" : "foot_r";
       const auto strikes = heel_strikes_zeni(model, k.time_s, k.q, foot);
       if (strikes.empty()) throw InputError(g->kinematics, 0, "start", "no heel strike of " + foot + " found: give --start");
@@ -194,9 +194,7 @@ void add_cpg_commands(CLI::App& app) {
     }
     // The ground under the recorded feet, as CMC places it.
     if (g->contacts.empty()) {
-      const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
-      contacts.ground_height_m = ground_height_under_feet(model, contacts, k.q);
-      contacts.ground_velocity_m_s = ground_velocity_under_feet(model, contacts, k.time_s, k.q);
+      place_ground_under_feet(model, contacts, k.time_s, k.q);
       std::printf("ground under the recorded feet: y = %.4f m, moving at (%.2f, %.2f, %.2f) m/s%s\n", contacts.ground_height_m,
                   contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.y(), contacts.ground_velocity_m_s.z(),
                   contacts.ground_velocity_m_s.norm() > 0 ? " (a treadmill)" : "");

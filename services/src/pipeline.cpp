@@ -474,8 +474,7 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
       summary["not_run"] = "the trial has less than half a gait cycle after its first usable heel strike";
     } else {
       const Storage ik = make_storage("ik", coordinate_names(model), ik_time, ik_q, false);
-      feet.ground_height_m = ground_height_under_feet(model, feet, ik_q);
-      feet.ground_velocity_m_s = ground_velocity_under_feet(model, feet, ik_time, ik_q);
+      place_ground_under_feet(model, feet, ik_time, ik_q);
       ReproducedGaitOptions go;
       go.start_time_s = start;
       go.duration_s = duration;

@@ -119,8 +119,7 @@ static void BM_ReproducedGaitSubject01(benchmark::State& state) {
   const CpgFitResult fit = fit_cpg(cycle_average(time, patterns, strikes, 100), cycle_s, names);
   const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
   ContactSet feet = default_foot_contacts(m);
-  feet.ground_height_m = ground_height_under_feet(m, feet, k.q);
-  feet.ground_velocity_m_s = ground_velocity_under_feet(m, feet, k.time_s, k.q);
+  place_ground_under_feet(m, feet, k.time_s, k.q);
   ReproducedGaitOptions o;
   o.start_time_s = heel_strikes_zeni(m, k.time_s, k.q, "calcn_r").front();
   o.duration_s = 2 * cycle_s;

@@ -203,8 +203,7 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   const Storage kin = read_storage(ik);
   const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
   ContactSet feet = default_foot_contacts(m);
-  feet.ground_height_m = ground_height_under_feet(m, feet, k.q);
-  feet.ground_velocity_m_s = ground_velocity_under_feet(m, feet, k.time_s, k.q);
+  place_ground_under_feet(m, feet, k.time_s, k.q);
   std::printf("[ info ] gait: ground at y = %.4f m, belt (%.2f, %.2f, %.2f) m/s\n", feet.ground_height_m, feet.ground_velocity_m_s.x(),
               feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z());
   EXPECT_NEAR(feet.ground_velocity_m_s.norm(), 1.15, 0.15) << "subject01 walks on a treadmill at ~1.1-1.2 m/s";

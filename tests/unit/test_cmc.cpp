@@ -18,12 +18,7 @@
 
 using namespace cpgait;
 
-namespace {
-const Model& walker() {
-  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
-  return m;
-}
-}  // namespace
+using refdata::walker;
 
 TEST(DormandPrince, HarmonicOscillatorToTolerance) {
   const OdeFunction f = [](double, const Eigen::VectorXd& x, Eigen::VectorXd& dx) {

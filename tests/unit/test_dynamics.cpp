@@ -17,10 +17,7 @@ using namespace cpgait;
 
 namespace {
 
-const Model& walker() {
-  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
-  return m;
-}
+using refdata::walker;
 
 // Energies computed independently of RNEA: body velocities from the motion subspace.
 double kinetic_energy(const Model& m, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {

@@ -9,12 +9,7 @@
 
 using namespace cpgait;
 
-namespace {
-const Model& walker() {
-  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
-  return m;
-}
-}  // namespace
+using refdata::walker;
 
 TEST(Ik, RecoversExactCoordinatesFromNoiseFreeMarkers) {
   const auto synth = fixtures::synthesize_trial(walker(), {});

@@ -66,10 +66,7 @@ void check_moment_arms(const Model& m, int poses) {
   EXPECT_GT(near_switch, 0);
 }
 
-const Muscle& vastus() {
-  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
-  return m.muscles[0];
-}
+const Muscle& vastus() { return refdata::walker().muscles[0]; }
 
 }  // namespace
 

@@ -13,10 +13,7 @@ using namespace cpgait;
 
 namespace {
 
-const Model& walker() {
-  static const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
-  return m;
-}
+using refdata::walker;
 
 // KKT conditions of min sum |x|^p, Ax = b, lo <= x <= hi, given the multipliers.
 void expect_kkt(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,

@@ -19,22 +19,6 @@ namespace cpgait {
 
 namespace {
 
-// Desired coordinates, speeds and accelerations between the trajectory's samples (linear: the
-// samples are dense, 1 kHz for OpenSim's RRA output, and the window ends fall on them).
-struct DesiredKinematics {
-  const CoordinateTrajectories& k;
-  void at(double t, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) const {
-    const auto& ts = k.time_s;
-    const int n = static_cast<int>(ts.size());
-    int i = static_cast<int>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1;
-    i = std::clamp(i, 0, n - 2);
-    const double w = std::clamp((t - ts[i]) / (ts[i + 1] - ts[i]), 0.0, 1.0);
-    q = ((1 - w) * k.q.row(i) + w * k.q.row(i + 1)).transpose();
-    u = ((1 - w) * k.qd.row(i) + w * k.qd.row(i + 1)).transpose();
-    a = ((1 - w) * k.qdd.row(i) + w * k.qdd.row(i + 1)).transpose();
-  }
-};
-
 bool is_residual(const Model& model, const ActuatorSpec& spec) {
   const Joint* root = nullptr;
   for (const auto& j : model.joints)
@@ -73,7 +57,6 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   ko.lowpass_cutoff_hz = options.lowpass_cutoff_hz;
   const CoordinateTrajectories traj = coordinate_trajectories(model, desired, ko);
   r.summary.warnings = traj.warnings;
-  const DesiredKinematics want{traj};
   const double data_t0 = traj.time_s.front(), data_t1 = traj.time_s.back();
   const double T = options.window_s;
   const double t_first = options.time_range_s ? options.time_range_s->first : data_t0;
@@ -143,8 +126,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       const Eigen::MatrixXd q_rows = traj.q(rows, Eigen::all);
       std::vector<double> t_rows;
       for (int k : rows) t_rows.push_back(traj.time_s[k]);
-      ground.ground_height_m = ground_height_under_feet(model, ground, q_rows);
-      ground.ground_velocity_m_s = ground_velocity_under_feet(model, ground, t_rows, q_rows);
+      place_ground_under_feet(model, ground, t_rows, q_rows);
       char buf[220];
       std::snprintf(buf, sizeof buf,
                     "contact spheres: the ground placed under the desired kinematics' feet, at y = %.4f m, moving at "
@@ -167,7 +149,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   // State.
   Eigen::VectorXd x(sys.state_size()), xdot(sys.state_size()), x_pred(sys.state_size());
   Eigen::VectorXd qd_f(nq), ud_f(nq), ad_f(nq), qd_i(nq), ud_i(nq), ad_i(nq);
-  want.at(t_begin, qd_i, ud_i, ad_i);
+  trajectories_at(traj, t_begin, qd_i, ud_i, ad_i);
   x.head(nq) = qd_i;
   x.segment(nq, nq) = ud_i;
   for (int m = 0; m < nm; ++m) x[sys.activation_index(m)] = std::max(u_min[m], 0.02);
@@ -285,7 +267,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   // Initial activations: the force distribution at the first instant with the full control range
   // (no activation-dynamics limit), so the run does not start from an arbitrary state.
   {
-    want.at(t_begin, qd_f, ud_f, ad_f);
+    trajectories_at(traj, t_begin, qd_f, ud_f, ad_f);
     qdd_des = ad_f;
     for (int m = 0; m < nm; ++m) {
       a_lo[m] = u_min[m];
@@ -326,15 +308,15 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     if (progress && progress->cancelled()) throw std::runtime_error("CMC cancelled");
     if (!reset_done && t >= t_out - 1e-9) {
       // OpenSim's reset after the settling time: kinematics back on the desired path.
-      want.at(t, qd_i, ud_i, ad_i);
+      trajectories_at(traj, t, qd_i, ud_i, ad_i);
       x.head(nq) = qd_i;
       x.segment(nq, nq) = ud_i;
       set_equilibrium_fibers(t);
       reset_done = true;
     }
     const double tf = t + T;
-    want.at(tf, qd_f, ud_f, ad_f);
-    want.at(t, qd_i, ud_i, ad_i);
+    trajectories_at(traj, tf, qd_f, ud_f, ad_f);
+    trajectories_at(traj, t, qd_i, ud_i, ad_i);
     // OpenSim's CMC_Joint: errors now, feedforward acceleration at the window's end; the forces are
     // solved on the state predicted for the window's end (desired path plus today's errors), so
     // that the forces reached at t + T suit the state there.
@@ -441,8 +423,8 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         // Inner loop (see the header): the ideal actuators re-solved for this sub-interval at the
         // current state, the muscles' forces as they are.
         Eigen::VectorXd qa(nq), ua(nq), aa(nq), qb(nq), ub(nq), ab(nq);
-        want.at(ta, qa, ua, aa);
-        want.at(tb, qb, ub, ab);
+        trajectories_at(traj, ta, qa, ua, aa);
+        trajectories_at(traj, tb, qb, ub, ab);
         Eigen::VectorXd acc = ab;
         for (int c : tracked) acc[c] = ka[c] * ab[c] + kv[c] * (ua[c] - x[nq + c]) + kp[c] * (qa[c] - x[c]);
         Eigen::VectorXd zero_controls = Eigen::VectorXd::Zero(na);

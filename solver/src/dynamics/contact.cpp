@@ -88,61 +88,50 @@ ContactSet read_contact_set(const std::string& path, const Model& model) {
   return parse_contact_set_json(text::read_file(path), path, model);
 }
 
-double ground_height_under_feet(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q_samples) {
-  if (set.spheres.empty() || q_samples.rows() == 0) return set.ground_height_m;
-  // The lowest sphere bottom over the poses. (The median of each pose's lowest bottom, which is
-  // nearer a standing foot's height, presses the feet in ~7 mm deeper on subject01 and made CMC's
-  // integration fail at the first stance: measured.)
+void place_ground_under_feet(const Model& model, ContactSet& set, const std::vector<double>& t, const Eigen::MatrixXd& q) {
+  if (set.spheres.empty() || q.rows() == 0) return;
+  // One pass of forward kinematics: every sphere's centre in every pose.
   KinematicsWorkspace<double> kws(model);
-  std::vector<double> lowest(q_samples.rows(), 1e30);
-  for (int i = 0; i < q_samples.rows(); ++i) {
-    const Eigen::VectorXd q = q_samples.row(i).transpose();
-    forward_kinematics(model, q.data(), kws);
-    for (const auto& sp : set.spheres) {
-      const auto& B = kws.body_in_ground[sp.body];
-      lowest[i] = std::min(lowest[i], (B.rotation * sp.location_m + B.translation_m).y() - sp.radius_m);
-    }
-  }
-  const double weight_N = model.total_mass_kg() * model.gravity_m_s2.norm();
-  return *std::min_element(lowest.begin(), lowest.end()) + std::pow(0.5 * weight_N / set.spheres.front().stiffness, 2.0 / 3.0);
-}
-
-Eigen::Vector3d ground_velocity_under_feet(const Model& model, const ContactSet& set, const std::vector<double>& t,
-                                           const Eigen::MatrixXd& q) {
-  if (set.spheres.empty() || q.rows() < 3) return Eigen::Vector3d::Zero();
-  KinematicsWorkspace<double> kws(model);
-  std::vector<Eigen::Vector3d> bottoms(q.rows());
+  const std::size_t ns = set.spheres.size();
+  std::vector<Eigen::Vector3d> centre(q.rows() * ns);
   std::vector<int> lowest(q.rows());
-  std::vector<std::vector<Eigen::Vector3d>> centres(q.rows());
+  double bottom = 1e30;
   for (int i = 0; i < q.rows(); ++i) {
     const Eigen::VectorXd qi = q.row(i).transpose();
     forward_kinematics(model, qi.data(), kws);
     double low = 1e30;
-    for (std::size_t s = 0; s < set.spheres.size(); ++s) {
+    for (std::size_t s = 0; s < ns; ++s) {
       const auto& sp = set.spheres[s];
       const auto& B = kws.body_in_ground[sp.body];
-      centres[i].push_back(B.rotation * sp.location_m + B.translation_m);
-      if (centres[i].back().y() - sp.radius_m < low) {
-        low = centres[i].back().y() - sp.radius_m;
+      centre[i * ns + s] = B.rotation * sp.location_m + B.translation_m;
+      if (centre[i * ns + s].y() - sp.radius_m < low) {
+        low = centre[i * ns + s].y() - sp.radius_m;
         lowest[i] = static_cast<int>(s);
       }
     }
+    bottom = std::min(bottom, low);
   }
+  // (The median of each pose's lowest bottom, nearer a standing foot's height, pressed subject01's
+  // feet ~7 mm deeper and made CMC's integration fail at the first stance: measured.)
+  const double weight_N = model.total_mass_kg() * model.gravity_m_s2.norm();
+  set.ground_height_m = bottom + std::pow(0.5 * weight_N / set.spheres.front().stiffness, 2.0 / 3.0);
+
   std::vector<double> vx, vz;
   for (int i = 1; i + 1 < q.rows(); ++i) {
     const int s = lowest[i];
-    if (centres[i][s].y() - set.spheres[s].radius_m > set.ground_height_m + 0.01) continue;
-    const Eigen::Vector3d v = (centres[i + 1][s] - centres[i - 1][s]) / (t[i + 1] - t[i - 1]);
+    if (centre[i * ns + s].y() - set.spheres[s].radius_m > set.ground_height_m + 0.01) continue;
+    const Eigen::Vector3d v = (centre[(i + 1) * ns + s] - centre[(i - 1) * ns + s]) / (t[i + 1] - t[i - 1]);
     vx.push_back(v.x());
     vz.push_back(v.z());
   }
-  if (vx.empty()) return Eigen::Vector3d::Zero();
+  set.ground_velocity_m_s.setZero();
+  if (vx.empty()) return;
   auto median = [](std::vector<double> a) {
     std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
     return a[a.size() / 2];
   };
   const Eigen::Vector3d v(median(vx), 0.0, median(vz));
-  return v.norm() < 0.1 ? Eigen::Vector3d::Zero() : v;
+  if (v.norm() >= 0.1) set.ground_velocity_m_s = v;
 }
 
 ContactSet default_foot_contacts(const Model& model) {

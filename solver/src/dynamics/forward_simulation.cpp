@@ -171,40 +171,32 @@ ForwardSimulationResult forward_simulation(const Model& model, const ResolvedAct
     want = coordinate_trajectories(model, *desired, {});
     r.warnings.insert(r.warnings.end(), want->warnings.begin(), want->warnings.end());
   }
-  auto desired_at = [&](double t, Eigen::VectorXd& q, Eigen::VectorXd& u) {
-    const auto& ts = want->time_s;
-    const int n = static_cast<int>(ts.size());
-    int i = std::clamp(static_cast<int>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1, 0, n - 2);
-    const double w = std::clamp((t - ts[i]) / (ts[i + 1] - ts[i]), 0.0, 1.0);
-    q = ((1 - w) * want->q.row(i) + w * want->q.row(i + 1)).transpose();
-    u = ((1 - w) * want->qd.row(i) + w * want->qd.row(i + 1)).transpose();
-  };
+
 
   MuscleDrivenWorkspace ws(sys);
   MuscleDrivenJacobian jac;
-  Eigen::VectorXd all, excitation(nm), control(na), x = x0, xdot(x.size()), qd(nq), ud(nq);
-  auto inputs_at = [&](double t, const Eigen::VectorXd& y) {
+  Eigen::VectorXd all, excitation(nm), control(na), x = x0, xdot(x.size()), qd(nq), ud(nq), ad(nq);
+  auto inputs_at = [&](double t) {
     controls.at(t, all);
     excitation = all.head(nm);
     control = all.tail(na);
-    (void)y;
   };
   // The correction controller acts as generalized forces on every coordinate (OpenSim adds one
   // coordinate actuator per coordinate); they enter the accelerations through M^-1.
   auto f = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
-    inputs_at(t, y);
+    inputs_at(t);
     muscle_driven_derivatives(sys, t, y, excitation, control, ws, dy);
     if (correcting) {
-      desired_at(t, qd, ud);
+      trajectories_at(*want, t, qd, ud, ad);
       const Eigen::VectorXd tau = o.correction_kp.value_or(0) * (qd - y.head(nq)) + o.correction_kv.value_or(0) * (ud - y.segment(nq, nq));
       dy.segment(nq, nq) += ws.fd.llt.solve(tau);
     }
   };
   auto prepare = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
-    inputs_at(t, y);
+    inputs_at(t);
     muscle_driven_prepare(sys, t, y, excitation, control, ws, jac, f0);
     if (correcting) {
-      desired_at(t, qd, ud);
+      trajectories_at(*want, t, qd, ud, ad);
       const Eigen::VectorXd tau = o.correction_kp.value_or(0) * (qd - y.head(nq)) + o.correction_kv.value_or(0) * (ud - y.segment(nq, nq));
       f0.segment(nq, nq) += ws.fd.llt.solve(tau);
     }

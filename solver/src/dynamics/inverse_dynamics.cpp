@@ -1,5 +1,7 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 
+#include <algorithm>
+
 #include <chrono>
 #include <cstdio>
 
@@ -22,6 +24,23 @@ int coordinate_column(const Storage& s, const std::string& name) {
 }
 
 }  // namespace
+
+void trajectories_at(const CoordinateTrajectories& k, double t, Eigen::VectorXd& q, Eigen::VectorXd& qd,
+                     Eigen::VectorXd& qdd) {
+  const auto& ts = k.time_s;
+  const int n = static_cast<int>(ts.size());
+  if (n == 1) {
+    q = k.q.row(0).transpose();
+    qd = k.qd.row(0).transpose();
+    qdd = k.qdd.row(0).transpose();
+    return;
+  }
+  const int i = std::clamp(static_cast<int>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1, 0, n - 2);
+  const double w = std::clamp((t - ts[i]) / (ts[i + 1] - ts[i]), 0.0, 1.0);
+  q = ((1 - w) * k.q.row(i) + w * k.q.row(i + 1)).transpose();
+  qd = ((1 - w) * k.qd.row(i) + w * k.qd.row(i + 1)).transpose();
+  qdd = ((1 - w) * k.qdd.row(i) + w * k.qdd.row(i + 1)).transpose();
+}
 
 CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage& coords,
                                                const InverseDynamicsOptions& options) {

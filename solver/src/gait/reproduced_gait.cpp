@@ -52,11 +52,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   std::vector<int> cpg_to_model(cpg.muscle_names.size(), -1);
   int matched = 0;
   for (std::size_t k = 0; k < cpg.muscle_names.size(); ++k) {
-    cpg_to_model[k] = model.muscles.empty() ? -1 : [&] {
-      for (int m = 0; m < nm; ++m)
-        if (model.muscles[m].name == cpg.muscle_names[k]) return m;
-      return -1;
-    }();
+    for (int m = 0; m < nm; ++m)
+      if (model.muscles[m].name == cpg.muscle_names[k]) cpg_to_model[k] = m;
     matched += cpg_to_model[k] >= 0;
   }
   if (matched == 0) throw InputError("cpg", 0, "muscles", "none of the CPG's muscles is in model " + model.name);
@@ -79,15 +76,13 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   // The reference, its root coordinates, and the start.
   const CoordinateTrajectories ref = coordinate_trajectories(model, reference, {});
   r.warnings.insert(r.warnings.end(), ref.warnings.begin(), ref.warnings.end());
+  // The reference at reference time tau, its rates scaled to simulated time by the speed knob.
   auto reference_at = [&](double tau, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) {
-    const auto& ts = ref.time_s;
-    const int n = static_cast<int>(ts.size());
-    const int i = std::clamp(static_cast<int>(std::upper_bound(ts.begin(), ts.end(), tau) - ts.begin()) - 1, 0, n - 2);
-    const double w = std::clamp((tau - ts[i]) / (ts[i + 1] - ts[i]), 0.0, 1.0);
-    q = ((1 - w) * ref.q.row(i) + w * ref.q.row(i + 1)).transpose();
-    u = ((1 - w) * ref.qd.row(i) + w * ref.qd.row(i + 1)).transpose() * o.speed;
-    a = ((1 - w) * ref.qdd.row(i) + w * ref.qdd.row(i + 1)).transpose() * (o.speed * o.speed);
+    trajectories_at(ref, tau, q, u, a);
+    u *= o.speed;
+    a *= o.speed * o.speed;
   };
+
   const double tau0 = o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s;
   const double ref_end = ref.time_s.back();
   if (tau0 < ref.time_s.front() || tau0 > ref_end)
@@ -172,14 +167,17 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     }
     // Pelvis residuals: the root's accelerations made the reference's plus PD.
     if (o.pelvis_residuals && !root.empty()) {
-      const Eigen::MatrixXd Minv = ws.fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
+      // Only M^-1's root columns are needed: qdd = qdd0 + M^-1 E tau_root.
       const int nr = static_cast<int>(root.size());
+      Eigen::MatrixXd E = Eigen::MatrixXd::Zero(nq, nr);
+      for (int j = 0; j < nr; ++j) E(root[j], j) = 1.0;
+      const Eigen::MatrixXd Minv_root = ws.fd.llt.solve(E);
       Eigen::MatrixXd B(nr, nr);
       Eigen::VectorXd want(nr);
       for (int i = 0; i < nr; ++i) {
         const int c = root[i];
         want[i] = a_ref[c] + o.pelvis_kv * (u_ref[c] - x[nq + c]) + o.pelvis_kp * (q_ref[c] - x[c]) - xdot[nq + c];
-        for (int j = 0; j < nr; ++j) B(i, j) = Minv(c, root[j]);
+        B.row(i) = Minv_root.row(c);
       }
       const Eigen::VectorXd tr = B.partialPivLu().solve(want);
       for (int i = 0; i < nr; ++i) tau_root[root[i]] = tr[i];

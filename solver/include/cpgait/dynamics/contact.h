@@ -48,16 +48,15 @@ Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& s
 ContactSet parse_contact_set_json(const std::string& text, const std::string& name, const Model& model);
 ContactSet read_contact_set(const std::string& path, const Model& model);
 
-// A ground height under recorded feet: the lowest sphere bottom over the poses (rows of q), raised
-// by how far half the body weight presses one sphere in, so that the lowest foot stands rather than
-// hovers. For simulations on spheres that follow a recorded trial.
-double ground_height_under_feet(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q_samples);
-
-// The velocity of whatever the recorded feet stand on: the median horizontal velocity of the lowest
-// sphere while it is within 1 cm of the ground. A treadmill trial gives the belt's velocity (the
-// stance foot moves backwards with it); overground, under 0.1 m/s, it is taken as zero.
-Eigen::Vector3d ground_velocity_under_feet(const Model& model, const ContactSet& set, const std::vector<double>& time_s,
-                                           const Eigen::MatrixXd& q_samples);
+// Puts the set's ground under recorded feet (poses q at times t, one row each), for simulations on
+// spheres that follow a recorded trial:
+// - height: the lowest sphere bottom over the poses, raised by how far half the body weight presses
+//   one sphere in, so that the lowest foot stands rather than hovers;
+// - velocity: the median horizontal velocity of each pose's lowest sphere while it is within 1 cm of
+//   that ground. A treadmill trial gives the belt's (the stance foot moves backwards with it);
+//   overground, under 0.1 m/s, it is zero.
+void place_ground_under_feet(const Model& model, ContactSet& set, const std::vector<double>& time_s,
+                             const Eigen::MatrixXd& q_samples);
 
 // Two spheres per foot (heel and toes) on calcn_/toes_ bodies (gait2392 and its kin) or on foot_
 // bodies (the fixture walker): the default when a simulation has no GRF and no contact file.

@@ -39,6 +39,11 @@ struct CoordinateTrajectories {
 };
 CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage& coordinates,
                                                const InverseDynamicsOptions& options);
+// Values, speeds and accelerations at time t, linear between the samples (held at the ends): what
+// the simulations that track a trajectory (CMC, the Forward tool's correction, the reproduced gait)
+// read between its dense samples.
+void trajectories_at(const CoordinateTrajectories& k, double t_s, Eigen::VectorXd& q, Eigen::VectorXd& qd,
+                     Eigen::VectorXd& qdd);
 
 struct InverseDynamicsSummary {
   int frames = 0;
