@@ -163,12 +163,12 @@ void run_forward(const ForwardInputs& in) {
 
 }  // namespace
 
-void run_so_setup(const std::string& setup_path, const std::string& results_override) {
+void run_so_setup(const std::string& setup_path, const ToolOverrides& o) {
   const AnalyzeSetup s = read_analyze_setup(setup_path);
   if (!s.has_static_optimization)
     throw InputError(setup_path, 0, "AnalysisSet", "the AnalyzeTool setup has no StaticOptimization analysis that is on");
   SoInputs in;
-  in.model = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
+  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
   in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
   in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
   for (const auto& f : s.force_set_files) in.actuator_files.push_back(resolve_setup_file(s.setup_dir, f, setup_path, "force_set_files"));
@@ -179,15 +179,15 @@ void run_so_setup(const std::string& setup_path, const std::string& results_over
   in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
   in.options.time_range_s = s.time_range_s;
   in.options.step_interval = s.step_interval;
-  in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
+  in.out_dir = o.results_dir(s.setup_dir, s.results_directory);
   in.name = s.name.empty() ? "static_optimization" : s.name;
   run_so(in);
 }
 
-void run_cmc_setup(const std::string& setup_path, const std::string& results_override) {
+void run_cmc_setup(const std::string& setup_path, const ToolOverrides& o) {
   const CmcSetup s = read_cmc_setup(setup_path);
   CmcInputs in;
-  in.model = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
+  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
   in.kinematics = resolve_setup_file(s.setup_dir, s.desired_kinematics_file, setup_path, "desired_kinematics_file");
   in.tasks = resolve_setup_file(s.setup_dir, s.task_set_file, setup_path, "task_set_file");
   in.constraints = resolve_setup_file(s.setup_dir, s.constraints_file, setup_path, "constraints_file");
@@ -200,15 +200,15 @@ void run_cmc_setup(const std::string& setup_path, const std::string& results_ove
   // The setup's integrator_error_tolerance is OpenSim's integrator's (another method and norm); the
   // default of ComputedMuscleControlOptions is used instead.
   if (!s.use_fast_target) std::fprintf(stderr, "warning: the slow optimization target is not implemented; using the fast target\n");
-  in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
+  in.out_dir = o.results_dir(s.setup_dir, s.results_directory);
   in.name = s.name.empty() ? "cmc" : s.name;
   run_cmc(in);
 }
 
-void run_forward_setup(const std::string& setup_path, const std::string& results_override) {
+void run_forward_setup(const std::string& setup_path, const ToolOverrides& o) {
   const ForwardSetup s = read_forward_setup(setup_path);
   ForwardInputs in;
-  in.model = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
+  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
   in.controls = resolve_setup_file(s.setup_dir, s.controls_file, setup_path, "controls_file");
   if (s.states_file.empty()) throw InputError(setup_path, 0, "states_file", "the Forward setup names no states_file (the initial state)");
   in.states = resolve_setup_file(s.setup_dir, s.states_file, setup_path, "states_file");
@@ -219,7 +219,7 @@ void run_forward_setup(const std::string& setup_path, const std::string& results
   in.options.t1_s = s.final_time_s;
   in.options.correction_kp = s.correction_kp;
   in.options.correction_kv = s.correction_kv;
-  in.out_dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
+  in.out_dir = o.results_dir(s.setup_dir, s.results_directory);
   in.name = s.name.empty() ? "forward" : s.name;
   run_forward(in);
 }

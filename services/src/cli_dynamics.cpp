@@ -41,16 +41,15 @@ void run_id(const IdInputs& in, const std::string& out_path) {
 
 }  // namespace
 
-void run_id_setup(const std::string& setup_path, const std::string& results_override) {
+void run_id_setup(const std::string& setup_path, const ToolOverrides& o) {
   const IdSetup s = read_id_setup(setup_path);
   IdInputs in;
-  in.model = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
-  if (in.model.empty()) throw InputError(setup_path, 0, "model_file", "the setup names no model");
+  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
   in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
   in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
   in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
   in.options.time_range_s = s.time_range_s;
-  const std::string dir = !results_override.empty() ? results_override : (fs::path(s.setup_dir) / s.results_directory).string();
+  const std::string dir = o.results_dir(s.setup_dir, s.results_directory);
   const std::string file = s.output_gen_force_file.empty() ? "inverse_dynamics.sto" : s.output_gen_force_file;
   run_id(in, (fs::path(dir) / file).string());
 }

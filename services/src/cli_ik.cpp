@@ -49,10 +49,9 @@ IkRun run_ik_and_write(const Model& model, const MarkerTrial& trial, const IkTas
 
 }  // namespace
 
-void run_ik_setup(const std::string& setup_path, const std::string& results_override, const std::string& bounds) {
+void run_ik_setup(const std::string& setup_path, const ToolOverrides& o) {
   const IkSetup s = read_ik_setup(setup_path);
-  const std::string model_path = resolve_setup_file(s.setup_dir, s.model_file, setup_path, "model_file");
-  if (model_path.empty()) throw InputError(setup_path, 0, "model_file", "the setup names no model");
+  const std::string model_path = o.model_file(s.setup_dir, s.model_file, setup_path);
   const OsimReadResult mr = read_osim(model_path);
   print_warnings(mr.warnings);
   const MarkerTrial trial = read_trc(resolve_setup_file(s.setup_dir, s.marker_file, setup_path, "marker_file"));
@@ -63,9 +62,8 @@ void run_ik_setup(const std::string& setup_path, const std::string& results_over
     reference = read_storage(resolve_setup_file(s.setup_dir, s.coordinate_file, setup_path, "coordinate_file"));
   IkOptions options;
   options.time_range_s = s.time_range_s;
-  options.bounds = parse_bounds(bounds);
-  const std::string out_dir = !results_override.empty() ? results_override
-                                                        : (fs::path(s.setup_dir) / s.results_directory).string();
+  options.bounds = parse_bounds(o.bounds);
+  const std::string out_dir = o.results_dir(s.setup_dir, s.results_directory);
   const std::string name = s.name.empty() ? "ik" : s.name;
   const std::string motion = s.output_motion_file.empty() ? name + "_ik.mot" : s.output_motion_file;
   run_ik_and_write(mr.model, trial, s.tasks, options, have_reference ? &reference : nullptr, out_dir, motion,

@@ -2,6 +2,7 @@
 #include "commands.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/xml_document.h"
+#include "setup_files.h"
 
 namespace cpgait::services {
 
@@ -11,23 +12,25 @@ void add_run_tool_command(CLI::App& app) {
                                 "results where the setup says (or in --results).\n"
                                 "Supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool (StaticOptimization), CMCTool, ForwardTool.");
   struct Args {
-    std::string setup, results, bounds = "clamped";
+    std::string setup;
+    ToolOverrides o;
   };
   auto a = std::make_shared<Args>();
   rt->add_option("setup", a->setup, "the tool's setup .xml")->required()->check(CLI::ExistingFile);
-  rt->add_option("--results", a->results, "write results here instead of the setup's results_directory");
-  rt->add_option("--bounds", a->bounds, "IK coordinate bounds: clamped, all, none")
+  rt->add_option("--results", a->o.results, "write results here instead of the setup's results_directory");
+  rt->add_option("--model", a->o.model, "use this .osim instead of the setup's model_file")->check(CLI::ExistingFile);
+  rt->add_option("--bounds", a->o.bounds, "IK coordinate bounds: clamped, all, none")
       ->check(CLI::IsMember({"clamped", "all", "none"}));
   rt->callback([a] {
     const auto d = xml::Document::load_file(a->setup);
     auto root = d.doc().document_element();
     if (std::string(root.name()) == "OpenSimDocument") root = root.first_child();
     const std::string tool = root.name();
-    if (tool == "InverseKinematicsTool") return run_ik_setup(a->setup, a->results, a->bounds);
-    if (tool == "InverseDynamicsTool") return run_id_setup(a->setup, a->results);
-    if (tool == "AnalyzeTool") return run_so_setup(a->setup, a->results);
-    if (tool == "CMCTool") return run_cmc_setup(a->setup, a->results);
-    if (tool == "ForwardTool") return run_forward_setup(a->setup, a->results);
+    if (tool == "InverseKinematicsTool") return run_ik_setup(a->setup, a->o);
+    if (tool == "InverseDynamicsTool") return run_id_setup(a->setup, a->o);
+    if (tool == "AnalyzeTool") return run_so_setup(a->setup, a->o);
+    if (tool == "CMCTool") return run_cmc_setup(a->setup, a->o);
+    if (tool == "ForwardTool") return run_forward_setup(a->setup, a->o);
     throw InputError(a->setup, d.line_of(root), tool,
                      "this tool is not supported yet (supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool with StaticOptimization, CMCTool, ForwardTool)");
   });

@@ -15,11 +15,13 @@ void add_serve_command(CLI::App& app);      // serve: the REST service
 void add_video_commands(CLI::App& app);     // detect, calibrate, register-tags, capture: AprilTag footage
 void add_cpg_commands(CLI::App& app);       // cpg fit, cpg run
 
-// Runners for OpenSim setups; results go to results_override when it is not empty.
-void run_ik_setup(const std::string& setup_path, const std::string& results_override, const std::string& bounds);
-void run_id_setup(const std::string& setup_path, const std::string& results_override);
-void run_so_setup(const std::string& setup_path, const std::string& results_override);  // AnalyzeTool + StaticOptimization
-void run_cmc_setup(const std::string& setup_path, const std::string& results_override);  // CMCTool
-void run_forward_setup(const std::string& setup_path, const std::string& results_override);  // ForwardTool
+struct ToolOverrides;  // setup_files.h
+
+// Runners for OpenSim setups, with the command line's overrides.
+void run_ik_setup(const std::string& setup_path, const ToolOverrides& o);
+void run_id_setup(const std::string& setup_path, const ToolOverrides& o);
+void run_so_setup(const std::string& setup_path, const ToolOverrides& o);       // AnalyzeTool + StaticOptimization
+void run_cmc_setup(const std::string& setup_path, const ToolOverrides& o);      // CMCTool
+void run_forward_setup(const std::string& setup_path, const ToolOverrides& o);  // ForwardTool
 
 }  // namespace cpgait::services

@@ -18,6 +18,20 @@ std::string resolve_setup_file(const std::string& setup_dir, const std::string& 
   throw InputError(setup_path, 0, field, "file '" + name + "' not found beside the setup");
 }
 
+std::string ToolOverrides::results_dir(const std::string& setup_dir, const std::string& results_directory) const {
+  return !results.empty() ? results : (fs::path(setup_dir) / results_directory).string();
+}
+
+std::string ToolOverrides::model_file(const std::string& setup_dir, const std::string& model_file, const std::string& setup_path) const {
+  if (!model.empty()) {
+    if (!fs::exists(model)) throw InputError(model, 0, "--model", "file not found");
+    return model;
+  }
+  const std::string path = resolve_setup_file(setup_dir, model_file, setup_path, "model_file");
+  if (path.empty()) throw InputError(setup_path, 0, "model_file", "the setup names no model");
+  return path;
+}
+
 void print_warnings(const std::vector<std::string>& warnings) {
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 }

@@ -12,6 +12,18 @@ namespace cpgait::services {
 std::string resolve_setup_file(const std::string& setup_dir, const std::string& name, const std::string& setup_path,
                                const char* field);
 
+// What the user may change about a setup on run-tool's command line.
+struct ToolOverrides {
+  std::string results;  // write results here instead of the setup's results_directory (empty: the setup's)
+  std::string model;    // use this model instead of the setup's model_file (empty: the setup's)
+  std::string bounds = "clamped";  // IK coordinate bounds: clamped, all, none
+
+  std::string results_dir(const std::string& setup_dir, const std::string& results_directory) const;
+  // The model to use: the override, else the setup's model_file resolved as above; a setup that
+  // names none is an InputError.
+  std::string model_file(const std::string& setup_dir, const std::string& model_file, const std::string& setup_path) const;
+};
+
 void print_warnings(const std::vector<std::string>& warnings);
 
 }  // namespace cpgait::services

@@ -109,6 +109,11 @@ TEST(StaticOptimization, MusclesWithReservesMeetTheEqualityWithinBounds) {
   StaticOptimizationOptions o;
   o.step_interval = 5;
   const StaticOptimizationResult r = static_optimization(m, coords, nullptr, acts, o);
+  // Every 5th sample from the first, and the last one, as OpenSim's AnalyzeTool records.
+  const int samples = coords.num_rows();
+  ASSERT_EQ(static_cast<int>(r.time_s.size()), (samples - 1) / 5 + 1 + ((samples - 1) % 5 != 0));
+  EXPECT_DOUBLE_EQ(r.time_s[1] - r.time_s[0], coords.time()[5] - coords.time()[0]);
+  EXPECT_DOUBLE_EQ(r.time_s.back(), coords.time()[samples - 1]);
   EXPECT_EQ(r.summary.frames_not_converged, 0);
   EXPECT_LT(r.summary.max_equality_violation, 1e-6);
   const int nm = static_cast<int>(m.muscles.size());

@@ -33,6 +33,8 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
   for (int i = 0; i < na; ++i) result.names.push_back(actuators.spec(i).name);
   std::vector<int> frames;
   for (int i = 0; i < static_cast<int>(k.time_s.size()); i += std::max(1, options.step_interval)) frames.push_back(i);
+  // OpenSim's AnalyzeTool also records the final time, whether or not it falls on a step.
+  if (!frames.empty() && frames.back() + 1 < static_cast<int>(k.time_s.size())) frames.push_back(static_cast<int>(k.time_s.size()) - 1);
   const int nf = static_cast<int>(frames.size());
   result.controls.resize(nf, n);
   result.forces.resize(nf, n);

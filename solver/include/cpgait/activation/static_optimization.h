@@ -25,7 +25,7 @@ struct StaticOptimizationOptions {
   bool use_muscle_physiology = true;
   double lowpass_cutoff_hz = -1;     // coordinates filter, as in ID; negative: none
   std::optional<std::pair<double, double>> time_range_s;
-  int step_interval = 1;             // analyse every n-th sample of the coordinates
+  int step_interval = 1;             // analyse every n-th sample of the coordinates, and the last one (as OpenSim)
   std::vector<double> output_times_s;  // analyse at these times instead (s), inside the data
   double equality_tolerance = 1e-9;  // relative to 1 + max generalized force: ~1e-6 N m here
 };
