@@ -154,6 +154,29 @@ TEST(CliReference, IdAndSoFromTheCommandLine) {
   fs::remove_all(dir);
 }
 
+// The SO tutorial's setup names subject01_simbody_adjusted.osim, shipped as *_StaticOp.osim: as
+// shipped it is refused naming model_file; with run-tool --model it runs, OpenSim's frames included
+// (every 10th sample from 0.5 s and the final 1.999 s).
+TEST(CliReference, RunToolModelOverrideRunsTheSoTutorial) {
+  const std::string so = cpgait::refdata::gait2392("so_tutorial/");
+  REQUIRE_REFERENCE(so + "subject01_walk1_grf.mot");
+  const std::string dir = cpgait::refdata::temp_dir("cli_so_tutorial");
+  const CliRun shipped = run("run-tool " + so + "setup_static_optimization.xml --results " + dir);
+  EXPECT_EQ(shipped.status, 2);
+  EXPECT_NE(shipped.output.find("model_file"), std::string::npos) << shipped.output;
+  const CliRun missing = run("run-tool " + so + "setup_static_optimization.xml --model " + dir + "/none.osim --results " + dir);
+  EXPECT_NE(missing.status, 0);
+  const CliRun r = run("run-tool " + so + "setup_static_optimization.xml --model " + so + "subject01_simbody_adjusted_StaticOp.osim --results " + dir);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const cpgait::Storage a = cpgait::read_storage(dir + "/subject01_StaticOptimization_activation.sto");
+  ASSERT_EQ(a.num_rows(), 151);
+  EXPECT_NEAR(a.time()[0], 0.5, 1e-9);
+  EXPECT_NEAR(a.time()[149], 1.99, 1e-9);
+  EXPECT_NEAR(a.time()[150], 1.999, 1e-9);
+  EXPECT_EQ(a.num_columns(), 1 + 92 + 6);
+  fs::remove_all(dir);
+}
+
 TEST(Cli, DetectCalibrateAndCaptureFromTheCommandLine) {
   const std::string dir = cpgait::refdata::temp_dir("cli_video");
   // detect: a rendered image with two tags; JSON with ids and four corners each.
