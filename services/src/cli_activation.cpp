@@ -12,6 +12,7 @@
 #include "cpgait/capture/analyze_setup.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "output_files.h"
 #include "setup_files.h"
 
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct SoInputs {
-  std::string model, coordinates, loads, grf, out_dir, name = "static_optimization";
+  std::string model, generic_model, coordinates, loads, grf, out_dir, name = "static_optimization";
   std::vector<std::string> actuator_files;
   bool use_model_actuators = true;
   bool replace_force_set = false;
@@ -29,21 +30,29 @@ struct SoInputs {
 };
 
 // What so, cmc and forward all read: the model (muscles dropped when the actuator files replace its
-// force set, as OpenSim does), its actuators plus those of the files, the external loads, and -
-// when asked for and there are no loads - contact spheres (the file's, else two per foot).
+// force set, as OpenSim does; muscle lengths scaled from the generic model when one is given), its
+// actuators plus those of the files, the external loads, and - when asked for and there are no
+// loads - contact spheres (the file's, else two per foot).
 struct DynamicsInputs {
   OsimReadResult model;
   std::vector<ActuatorSpec> actuators;
   std::unique_ptr<AppliedLoads> loads;
   std::optional<ContactSet> contacts;
 };
-DynamicsInputs read_dynamics_inputs(const std::string& model, const std::vector<std::string>& actuator_files,
+DynamicsInputs read_dynamics_inputs(const std::string& model, const std::string& generic_model, const std::vector<std::string>& actuator_files,
                                     bool use_model_actuators, bool replace_force_set, const std::string& loads,
                                     const std::string& grf, bool contacts_without_loads = false,
                                     const std::string& contacts_file = "") {
   DynamicsInputs d;
   d.model = read_osim(model);
   print_warnings(d.model.warnings);
+  if (!generic_model.empty()) {
+    MuscleScalingSummary ms;
+    d.model.model = scale_muscle_parameters(d.model.model, read_osim(generic_model).model, &ms);
+    std::fprintf(stderr, "muscles scaled from %s: %s\n", generic_model.c_str(), ms.BriefReport().c_str());
+  } else if (const std::string w = unscaled_muscles_warning(d.model.model); !w.empty()) {
+    print_warnings({w});
+  }
   if (replace_force_set) d.model.model.muscles.clear();
   else if (use_model_actuators) d.actuators = read_actuators(model);
   for (const auto& f : actuator_files) {
@@ -64,7 +73,7 @@ DynamicsInputs read_dynamics_inputs(const std::string& model, const std::vector<
 }
 
 void run_so(const SoInputs& in) {
-  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, in.use_model_actuators, in.replace_force_set, in.loads, in.grf);
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.generic_model, in.actuator_files, in.use_model_actuators, in.replace_force_set, in.loads, in.grf);
   OsimReadResult& mr = d.model;
   const ResolvedActuators actuators(mr.model, d.actuators);
   const std::unique_ptr<AppliedLoads>& loads = d.loads;
@@ -82,7 +91,7 @@ void run_so(const SoInputs& in) {
 
 
 struct CmcInputs {
-  std::string model, kinematics, tasks, constraints, loads, grf, contacts, out_dir, name = "cmc";
+  std::string model, generic_model, kinematics, tasks, constraints, loads, grf, contacts, out_dir, name = "cmc";
   std::vector<std::string> actuator_files;
   bool replace_force_set = false;
   bool no_contact = false;
@@ -90,7 +99,7 @@ struct CmcInputs {
 };
 
 void run_cmc(const CmcInputs& in) {
-  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf, !in.no_contact, in.contacts);
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.generic_model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf, !in.no_contact, in.contacts);
   OsimReadResult& mr = d.model;
   const ResolvedActuators actuators(mr.model, d.actuators);
   const std::unique_ptr<AppliedLoads>& loads = d.loads;
@@ -123,7 +132,7 @@ void run_cmc(const CmcInputs& in) {
 
 
 struct ForwardInputs {
-  std::string model, controls, states, loads, grf, contacts, desired, out_dir, name = "forward";
+  std::string model, generic_model, controls, states, loads, grf, contacts, desired, out_dir, name = "forward";
   std::vector<std::string> actuator_files;
   bool replace_force_set = false;
   bool no_contact = false;
@@ -131,7 +140,7 @@ struct ForwardInputs {
 };
 
 void run_forward(const ForwardInputs& in) {
-  DynamicsInputs d = read_dynamics_inputs(in.model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf, !in.no_contact, in.contacts);
+  DynamicsInputs d = read_dynamics_inputs(in.model, in.generic_model, in.actuator_files, true, in.replace_force_set, in.loads, in.grf, !in.no_contact, in.contacts);
   OsimReadResult& mr = d.model;
   const ResolvedActuators actuators(mr.model, d.actuators);
   const std::unique_ptr<AppliedLoads>& loads = d.loads;
@@ -169,6 +178,7 @@ void run_so_setup(const std::string& setup_path, const ToolOverrides& o) {
     throw InputError(setup_path, 0, "AnalysisSet", "the AnalyzeTool setup has no StaticOptimization analysis that is on");
   SoInputs in;
   in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
+  in.generic_model = o.generic_model;
   in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
   in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
   for (const auto& f : s.force_set_files) in.actuator_files.push_back(resolve_setup_file(s.setup_dir, f, setup_path, "force_set_files"));
@@ -188,6 +198,7 @@ void run_cmc_setup(const std::string& setup_path, const ToolOverrides& o) {
   const CmcSetup s = read_cmc_setup(setup_path);
   CmcInputs in;
   in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
+  in.generic_model = o.generic_model;
   in.kinematics = resolve_setup_file(s.setup_dir, s.desired_kinematics_file, setup_path, "desired_kinematics_file");
   in.tasks = resolve_setup_file(s.setup_dir, s.task_set_file, setup_path, "task_set_file");
   in.constraints = resolve_setup_file(s.setup_dir, s.constraints_file, setup_path, "constraints_file");
@@ -209,6 +220,7 @@ void run_forward_setup(const std::string& setup_path, const ToolOverrides& o) {
   const ForwardSetup s = read_forward_setup(setup_path);
   ForwardInputs in;
   in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
+  in.generic_model = o.generic_model;
   in.controls = resolve_setup_file(s.setup_dir, s.controls_file, setup_path, "controls_file");
   if (s.states_file.empty()) throw InputError(setup_path, 0, "states_file", "the Forward setup names no states_file (the initial state)");
   in.states = resolve_setup_file(s.setup_dir, s.states_file, setup_path, "states_file");
@@ -236,6 +248,9 @@ void add_activation_commands(CLI::App& app) {
   auto time = std::make_shared<std::vector<double>>();
   auto no_physiology = std::make_shared<bool>(false);
   so->add_option("--model", a->model, "OpenSim model (.osim)")->required()->check(CLI::ExistingFile);
+  so->add_option("--scale-muscles-from", a->generic_model,
+                 "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
   so->add_option("--coordinates", a->coordinates, "coordinates (.mot/.sto), e.g. the IK result")->required()->check(CLI::ExistingFile);
   so->add_option("--loads", a->loads, "ExternalLoads .xml")->check(CLI::ExistingFile);
   so->add_option("--grf", a->grf, "GRF data .mot (default: the datafile the loads name)")->check(CLI::ExistingFile);
@@ -265,6 +280,9 @@ void add_activation_commands(CLI::App& app) {
   auto c = std::make_shared<CmcInputs>();
   auto ctime = std::make_shared<std::vector<double>>();
   cmc->add_option("--model", c->model, "OpenSim model (.osim)")->required()->check(CLI::ExistingFile);
+  cmc->add_option("--scale-muscles-from", c->generic_model,
+                 "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
   cmc->add_option("--kinematics", c->kinematics, "desired coordinates (.mot/.sto), e.g. RRA's or IK's")->required()->check(CLI::ExistingFile);
   cmc->add_option("--tasks", c->tasks, "CMC task set .xml (coordinates tracked, kp, kv)")->required()->check(CLI::ExistingFile);
   cmc->add_option("--constraints", c->constraints, "control constraints ControlSet .xml")->check(CLI::ExistingFile);
@@ -301,6 +319,9 @@ void add_activation_commands(CLI::App& app) {
   auto ftime = std::make_shared<std::vector<double>>();
   auto kp = std::make_shared<double>(-1), kv = std::make_shared<double>(-1);
   fwd->add_option("--model", fw->model, "OpenSim model (.osim)")->required()->check(CLI::ExistingFile);
+  fwd->add_option("--scale-muscles-from", fw->generic_model,
+                 "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
   fwd->add_option("--controls", fw->controls, "controls: CMC's _controls.sto or a ControlSet .xml")->required()->check(CLI::ExistingFile);
   fwd->add_option("--states", fw->states, "states .sto holding the initial state")->required()->check(CLI::ExistingFile);
   fwd->add_option("--actuators", fw->actuator_files, "actuator ForceSet .xml files (repeatable)")->check(CLI::ExistingFile);

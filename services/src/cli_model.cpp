@@ -5,6 +5,7 @@
 #include "commands.h"
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "output_files.h"
 
 namespace cpgait::services {
@@ -38,10 +39,14 @@ void add_model_commands(CLI::App& app) {
                                   {"clamped", c.clamped},
                                   {"locked", c.locked}});
     for (const auto& mk : m.markers) j["markers"].push_back({{"name", mk.name}, {"body", m.bodies[mk.body].name}});
-    for (const auto& mu : m.muscles)
+    const std::vector<double> fiber = normalized_fiber_lengths_at_default_pose(m);
+    for (std::size_t k = 0; k < m.muscles.size(); ++k) {
+      const Muscle& mu = m.muscles[k];
       j["muscles"].push_back({{"name", mu.name}, {"type", mu.type}, {"max_isometric_force_N", mu.max_isometric_force_N},
-                              {"path_points", mu.path.size()}});
+                              {"path_points", mu.path.size()}, {"fiber_length_at_default_pose_normalized", fiber[k]}});
+    }
     j["warnings"] = r.warnings;
+    if (const std::string w = unscaled_muscles_warning(m); !w.empty()) j["warnings"].push_back(w);
     std::printf("%s\n", j.dump(2).c_str());
   });
 

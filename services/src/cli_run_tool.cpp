@@ -19,6 +19,9 @@ void add_run_tool_command(CLI::App& app) {
   rt->add_option("setup", a->setup, "the tool's setup .xml")->required()->check(CLI::ExistingFile);
   rt->add_option("--results", a->o.results, "write results here instead of the setup's results_directory");
   rt->add_option("--model", a->o.model, "use this .osim instead of the setup's model_file")->check(CLI::ExistingFile);
+  rt->add_option("--scale-muscles-from", a->o.generic_model,
+                 "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
   rt->add_option("--bounds", a->o.bounds, "IK coordinate bounds: clamped, all, none")
       ->check(CLI::IsMember({"clamped", "all", "none"}));
   rt->callback([a] {

@@ -16,6 +16,7 @@ std::string resolve_setup_file(const std::string& setup_dir, const std::string& 
 struct ToolOverrides {
   std::string results;  // write results here instead of the setup's results_directory (empty: the setup's)
   std::string model;    // use this model instead of the setup's model_file (empty: the setup's)
+  std::string generic_model;  // scale the model's muscle lengths from this generic model (empty: as they are)
   std::string bounds = "clamped";  // IK coordinate bounds: clamped, all, none
 
   std::string results_dir(const std::string& setup_dir, const std::string& results_directory) const;

@@ -6,6 +6,7 @@
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/muscle_path.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "cpgait/muscles/thelen2003.h"
 #include "test_support.h"
 
@@ -164,4 +165,37 @@ TEST(ActivationDynamics, StepResponsesFollowTheTimeConstants) {
   // Up from 0.3 to 0.4: tau_act (0.5 + 1.5 * 0.3) = 0.01425 s.
   EXPECT_NEAR(thelen_activation_rate(m, 0.4, 0.3), 0.1 / (0.015 * 0.95), 1e-12);
   EXPECT_NEAR(thelen_activation_rate(m, 0.2, 0.3), -0.1 / (0.060 / 0.95), 1e-12);
+}
+
+// OpenSim's ScaleTool for muscles: a model whose fixed path points were moved outwards (a bigger
+// subject) without its muscle lengths gets them scaled by each path's length ratio at the default
+// pose, so its normalized fibre lengths there are the generic model's again; a muscle the generic
+// model lacks is left alone and named.
+TEST(ScaleMuscleParameters, RestoresTheGenericNormalizedFiberLengths) {
+  const Model generic = read_osim(refdata::fixture("models/walker.osim")).model;
+  ASSERT_GT(generic.muscles.size(), 4u);
+  Model bigger = generic;
+  for (auto& mu : bigger.muscles)
+    for (auto& p : mu.path)
+      if (p.kind == PathPoint::Kind::kFixed) p.location_m *= 1.15;
+  bigger.muscles.back().name = "only_in_scaled";
+  MuscleScalingSummary s;
+  const Model scaled = scale_muscle_parameters(bigger, generic, &s);
+  EXPECT_EQ(s.muscles_scaled, static_cast<int>(generic.muscles.size()) - 1);
+  ASSERT_EQ(s.not_in_generic.size(), 1u);
+  EXPECT_EQ(s.not_in_generic[0], "only_in_scaled");
+  EXPECT_GT(s.largest_ratio - s.smallest_ratio, 0.01);
+  const std::vector<double> before = normalized_fiber_lengths_at_default_pose(generic);
+  const std::vector<double> moved = normalized_fiber_lengths_at_default_pose(bigger);
+  const std::vector<double> after = normalized_fiber_lengths_at_default_pose(scaled);
+  double moved_off = 0;
+  for (std::size_t m = 0; m + 1 < generic.muscles.size(); ++m) {
+    EXPECT_NEAR(after[m], before[m], 1e-12) << generic.muscles[m].name;
+    moved_off = std::max(moved_off, std::abs(moved[m] - before[m]));
+    // Both lengths by the same ratio: their proportion stays.
+    EXPECT_NEAR(scaled.muscles[m].tendon_slack_length_m / scaled.muscles[m].optimal_fiber_length_m,
+                generic.muscles[m].tendon_slack_length_m / generic.muscles[m].optimal_fiber_length_m, 1e-12);
+  }
+  EXPECT_GT(moved_off, 0.05);  // the moved points did put the fibres elsewhere
+  EXPECT_EQ(scaled.muscles.back().optimal_fiber_length_m, bigger.muscles.back().optimal_fiber_length_m);
 }
