@@ -12,7 +12,6 @@
 #include "cpgait/capture/analyze_setup.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/model/osim_reader.h"
-#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "output_files.h"
 #include "setup_files.h"
 
@@ -44,15 +43,7 @@ DynamicsInputs read_dynamics_inputs(const std::string& model, const std::string&
                                     const std::string& grf, bool contacts_without_loads = false,
                                     const std::string& contacts_file = "") {
   DynamicsInputs d;
-  d.model = read_osim(model);
-  print_warnings(d.model.warnings);
-  if (!generic_model.empty()) {
-    MuscleScalingSummary ms;
-    d.model.model = scale_muscle_parameters(d.model.model, read_osim(generic_model).model, &ms);
-    std::fprintf(stderr, "muscles scaled from %s: %s\n", generic_model.c_str(), ms.BriefReport().c_str());
-  } else if (const std::string w = unscaled_muscles_warning(d.model.model); !w.empty()) {
-    print_warnings({w});
-  }
+  d.model = read_muscle_model(model, generic_model);
   if (replace_force_set) d.model.model.muscles.clear();
   else if (use_model_actuators) d.actuators = read_actuators(model);
   for (const auto& f : actuator_files) {

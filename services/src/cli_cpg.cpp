@@ -153,13 +153,16 @@ void add_cpg_commands(CLI::App& app) {
       "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
       "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
   struct GaitArgs {
-    std::string model, cpg, kinematics, contacts, out;
+    std::string model, generic_model, cpg, kinematics, contacts, out;
     double start = -1;
     ReproducedGaitOptions options;
     bool no_residuals = false;
   };
   auto g = std::make_shared<GaitArgs>();
   gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
+  gait->add_option("--scale-muscles-from", g->generic_model,
+                   "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
   gait->add_option("--cpg", g->cpg, "fitted CPG (cpgait cpg fit, or the pipeline's _cpg.json)")->required()->check(CLI::ExistingFile);
   gait->add_option("--kinematics", g->kinematics, "the trial's coordinates (IK .mot): initial state, reference")->required()->check(CLI::ExistingFile);
   gait->add_option("--start", g->start, "a heel strike of the CPG's foot in the trial, s (default: the first, Zeni's method)");
@@ -169,11 +172,13 @@ void add_cpg_commands(CLI::App& app) {
   gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
   gait->add_option("--reflex-kp", g->options.reflex_kp, "joint-angle reflex gain, excitation per (m x rad)")->capture_default_str();
   gait->add_option("--reflex-kv", g->options.reflex_kv, "joint-speed reflex gain, excitation per (m x rad/s)")->capture_default_str();
+  gait->add_option("--passive-stiffness", g->options.passive_stiffness_Nm_per_rad,
+                   "stiffness of the passive joints (coordinates named mtp_*), N m/rad; 0: none")
+      ->capture_default_str();
   gait->add_option("--contacts", g->contacts, "contact spheres JSON (cpgait.contact/1); default: two per foot")->check(CLI::ExistingFile);
   gait->add_option("-o,--output", g->out, "output prefix")->required();
   gait->callback([g] {
-    OsimReadResult mr = read_osim(g->model);
-    print_warnings(mr.warnings);
+    const OsimReadResult mr = read_muscle_model(g->model, g->generic_model);
     const Model& model = mr.model;
     const CpgModel cpg = read_cpg_model(g->cpg);
     const Storage kin = read_storage(g->kinematics);

@@ -9,6 +9,7 @@
 #include "cpgait/capture/json_input.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/contact.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
@@ -383,11 +384,13 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     const StaticOptimizationResult& r = so_result;
     write(static_optimization_activation_table(r), in.name + "_StaticOptimization_activation.sto");
     write(static_optimization_force_table(r), in.name + "_StaticOptimization_force.sto");
+    std::vector<std::string> warnings = r.summary.warnings;
+    if (std::string w = unscaled_muscles_warning(model); !w.empty()) warnings.push_back(std::move(w));
     const json summary = {{"frames", r.summary.frames},
                           {"frames_per_second", r.summary.frames_per_second()},
                           {"max_equality_violation", r.summary.max_equality_violation},
                           {"frames_not_converged", r.summary.frames_not_converged},
-                          {"warnings", r.summary.warnings}};
+                          {"warnings", warnings}};
     result.summary["so"] = summary;
     if (observer) observer->stage_finished("so", timer.seconds(), summary);
   }

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 
 namespace cpgait::services {
 namespace fs = std::filesystem;
@@ -34,6 +35,19 @@ std::string ToolOverrides::model_file(const std::string& setup_dir, const std::s
 
 void print_warnings(const std::vector<std::string>& warnings) {
   for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+}
+
+OsimReadResult read_muscle_model(const std::string& model, const std::string& generic_model) {
+  OsimReadResult r = read_osim(model);
+  print_warnings(r.warnings);
+  if (!generic_model.empty()) {
+    MuscleScalingSummary ms;
+    r.model = scale_muscle_parameters(r.model, read_osim(generic_model).model, &ms);
+    std::fprintf(stderr, "muscles scaled from %s: %s\n", generic_model.c_str(), ms.BriefReport().c_str());
+  } else if (const std::string w = unscaled_muscles_warning(r.model); !w.empty()) {
+    print_warnings({w});
+  }
+  return r;
 }
 
 }  // namespace cpgait::services

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "cpgait/model/osim_reader.h"
+
 namespace cpgait::services {
 
 // A file named by a setup: relative to the setup's folder, as OpenSim resolves it. OpenSim's
@@ -26,5 +28,10 @@ struct ToolOverrides {
 };
 
 void print_warnings(const std::vector<std::string>& warnings);
+
+// A model for the muscle-driven subcommands (so, cmc, forward, gait): read, its warnings printed, its
+// muscle lengths scaled from the generic model when one is named (scale_muscle_parameters.h) - else a
+// warning when they look unscaled.
+OsimReadResult read_muscle_model(const std::string& model, const std::string& generic_model);
 
 }  // namespace cpgait::services

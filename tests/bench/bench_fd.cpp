@@ -8,6 +8,7 @@
 #include "cpgait/dynamics/forward_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
@@ -104,7 +105,13 @@ static void BM_ReproducedGaitSubject01(benchmark::State& state) {
     state.SkipWithError("reference data absent: ../shared/reference/opensim41-here");
     return;
   }
-  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
+  const std::string generic = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/model/gait2392_simbody.osim";
+  if (!std::filesystem::exists(generic)) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392/model");
+    return;
+  }
+  // Muscle lengths scaled from the generic model, as the reproduced-gait test does.
+  const Model m = scale_muscle_parameters(read_osim(pl + "OutputReference/subject01_simbody.osim").model, read_osim(generic).model);
   const Storage act = read_storage(so), grf = read_storage(pl + "subject01_walk1_grf.mot"), kin = read_storage(ik);
   const std::vector<double> strikes = contact_onsets(grf.time(), grf.data.col(grf.column("ground_force_vy")));
   const Eigen::VectorXd t = act.time();

@@ -12,6 +12,7 @@
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "test_support.h"
 
 using namespace cpgait;
@@ -206,16 +207,19 @@ TEST(CpgGait2392, FitsSubject01Activations) {
   EXPECT_LT(largest, 0.02);
 }
 
-// Issue 5's reproduced gait, first version: the fitted CPG drives the muscles on contact spheres
-// (the trial is on a treadmill: the belt's speed comes from the recorded feet). What is held: the
-// pelvis residuals keep the pelvis on the trial's path, both feet strike the ground repeatedly, and
-// the simulation keeps up with real time; the tracking errors and residual magnitudes are reported
-// (the issue's 5 deg and 10 % BW are not met yet).
+// Issue 5's reproduced gait: the fitted CPG drives the muscles on contact spheres (the trial is on a
+// treadmill: the belt's speed comes from the recorded feet), the toes passive, the pelvis held on the
+// trial by residuals. The shipped model carries gait2392's generic muscle lengths on scaled paths
+// (scale_muscle_parameters.h): the simulation scales them from the generic model as OpenSim's
+// ScaleTool does - without it the hamstrings' and rectus femoris' passive forces bent the legs 10-25
+// deg off (measured). Held: every coordinate within the issue's 5 deg RMS of the trial, the pelvis on
+// it, both feet striking; the residual magnitudes are reported (the issue's 10 % BW is not met).
 TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
-  REQUIRE_REFERENCE(ik);
+  const std::string generic = refdata::gait2392("model/gait2392_simbody.osim");
+  for (const auto& p : {refdata::gait2392("pipeline/subject01_walk1_grf.mot"), ik, generic}) REQUIRE_REFERENCE(p);
   const Subject01Cpg& c = subject01_cpg();
-  const Model& m = c.model;
+  const Model m = scale_muscle_parameters(c.model, read_osim(generic).model);
   const Storage kin = read_storage(ik);
   const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
   ContactSet feet = default_foot_contacts(m);
@@ -236,9 +240,29 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   std::printf("\n");
   EXPECT_LT(r.fell_at_s, 0.0);
   for (const char* p : {"pelvis_tx", "pelvis_ty", "pelvis_tz"}) EXPECT_LT(r.tracking_rms[m.coordinate_index(p)], 0.002) << p;
-  for (const char* p : {"pelvis_tilt", "pelvis_list", "pelvis_rotation"}) EXPECT_LT(r.tracking_rms[m.coordinate_index(p)] * 180 / M_PI, 1.0) << p;
-  EXPECT_GE(r.heel_strikes_r_s.size(), 2u);
-  EXPECT_GE(r.heel_strikes_l_s.size(), 2u);
+  for (int q = 0; q < m.num_coordinates(); ++q) {
+    if (m.coordinates[q].is_angle()) {
+      EXPECT_LT(r.tracking_rms[q] * 180 / M_PI, 5.0) << m.coordinates[q].name;
+    }
+  }
+  std::printf("[ info ] gait: heel strikes right %zu, left %zu; stride %.3f s (trial's cycle %.3f s); pelvis residual force %.1f %% BW\n",
+              r.heel_strikes_r_s.size(), r.heel_strikes_l_s.size(), r.stride_time_s, c.cycle_s, r.mean_residual_force_percent_bw);
+  // Two right heel strikes a stride apart, as in the trial. The trial's second left strike comes where
+  // OpenSim's IK (0.5-2.5 s) ends, 1.9 s into the simulation, after which the reference stands still.
+  ASSERT_GE(r.heel_strikes_r_s.size(), 2u);
+  EXPECT_NEAR(r.stride_time_s, c.cycle_s, 0.05 * c.cycle_s);
+  EXPECT_GE(r.heel_strikes_l_s.size(), 1u);
+
+  // The speed knob: +-20 % gives strides 20 % shorter or longer in time (the belt sped up alike). The
+  // left leg's tracking degrades there (reported).
+  for (double speed : {0.8, 1.2}) {
+    ReproducedGaitOptions os = o;
+    os.speed = speed;
+    const ReproducedGaitResult rs = reproduce_gait(m, c.fit.model, kin, feet, os);
+    std::printf("[ info ] gait at speed %.1f: %s\n", speed, rs.BriefReport().c_str());
+    ASSERT_GE(rs.heel_strikes_r_s.size(), 2u) << speed;
+    EXPECT_NEAR(rs.stride_time_s, r.stride_time_s / speed, 0.05 * r.stride_time_s / speed) << speed;
+  }
 }
 
 // Heel strikes from kinematics alone (Zeni 2008) against the force plate's onsets (20 N) on subject01.

@@ -38,12 +38,16 @@ std::vector<double> rising_through(const std::vector<double>& t, const std::vect
 }  // namespace
 
 ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, const Storage& reference,
-                                    const ContactSet& contacts, const ReproducedGaitOptions& o, Progress* progress) {
+                                    const ContactSet& contacts_in, const ReproducedGaitOptions& o, Progress* progress) {
   const auto clock_start = std::chrono::steady_clock::now();
   ReproducedGaitResult r;
   r.coordinate_names = coordinate_names(model);
   const int nq = model.num_coordinates(), nm = static_cast<int>(model.muscles.size());
-  if (contacts.spheres.empty()) throw InputError(reference.name, 0, "contacts", "the reproduced gait needs contact spheres");
+  if (contacts_in.spheres.empty()) throw InputError(reference.name, 0, "contacts", "the reproduced gait needs contact spheres");
+  // A treadmill's belt runs at the speed knob's pace too: the reference is time-scaled, its strides
+  // keep their length, so the belt must move them back that much faster.
+  ContactSet contacts = contacts_in;
+  contacts.ground_velocity_m_s *= o.speed;
 
   CpgModel cpg = cpg_in;
   cpg.speed = cpg_in.speed * o.speed;
@@ -135,14 +139,31 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
                                                                          : -1;
   const double start_height = height_coordinate >= 0 ? x[height_coordinate] : 0.0;
 
+  // The passive joints (options), the root's aside.
+  std::vector<int> passive;
+  for (int c = 0; c < nq; ++c)
+    if (!o.passive_coordinate_prefix.empty() && std::find(root.begin(), root.end(), c) == root.end() &&
+        model.coordinates[c].name.rfind(o.passive_coordinate_prefix, 0) == 0)
+      passive.push_back(c);
+
   Eigen::VectorXd tau_root = Eigen::VectorXd::Zero(nq);  // the residuals, as generalized forces
+  Eigen::VectorXd tau_extra(nq);
+  // The residuals and the passive joints' torques, as generalized forces at state y.
+  auto extra_forces = [&](const Eigen::VectorXd& y) -> const Eigen::VectorXd& {
+    if (o.pelvis_residuals) tau_extra = tau_root;
+    else tau_extra.setZero();
+    for (int c : passive)
+      tau_extra[c] -= o.passive_stiffness_Nm_per_rad * (y[c] - model.coordinates[c].default_value) + o.passive_damping_Nms_per_rad * y[nq + c];
+    return tau_extra;
+  };
+  const bool any_extra = o.pelvis_residuals || !passive.empty();
   auto f = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
     muscle_driven_derivatives(sys, t, y, excitation, no_controls, ws, dy);
-    if (o.pelvis_residuals) dy.segment(nq, nq) += ws.fd.llt.solve(tau_root);
+    if (any_extra) dy.segment(nq, nq) += ws.fd.llt.solve(extra_forces(y));
   };
   auto prepare = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
     muscle_driven_prepare(sys, t, y, excitation, no_controls, ws, jac, f0);
-    if (o.pelvis_residuals) f0.segment(nq, nq) += ws.fd.llt.solve(tau_root);
+    if (any_extra) f0.segment(nq, nq) += ws.fd.llt.solve(extra_forces(y));
   };
   auto w_solve = [&](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) { muscle_driven_w_solve(sys, jac, gh, rhs, k); };
   RosenbrockOptions ro;
@@ -161,6 +182,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     // Forces at the current state without residuals: contact, muscles, geometry for the reflexes.
     tau_root.setZero();
     muscle_driven_derivatives(sys, t, x, excitation, no_controls, ws, xdot);
+    if (!passive.empty()) xdot.segment(nq, nq) += ws.fd.llt.solve(extra_forces(x));
     Eigen::VectorXd contact_row(3 * contacts.spheres.size());
     for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
       contact_row.segment<3>(3 * s) = ws.contact_force_N[s];

@@ -25,11 +25,21 @@ namespace cpgait {
 struct ReproducedGaitOptions {
   double start_time_s = 0;        // in the reference: a heel strike of the foot the CPG was fitted to
   double duration_s = 2.5;        // simulated time (s): at least two cycles for a gait at 1.2 s/cycle
-  double speed = 1.0;             // CPG speed knob (cycle time / speed); the reference is scaled alike
+  double speed = 1.0;             // CPG speed knob (cycle time / speed); the reference and a treadmill belt alike
   double amplitude = 1.0;         // CPG amplitude knob
   bool pelvis_residuals = true;
   double pelvis_kp = 100, pelvis_kv = 20;      // 1/s^2, 1/s on the pelvis' errors
-  double reflex_kp = 40, reflex_kv = 4;        // excitation per (m x rad) and per (m x rad/s)
+  // Excitation per (m x rad) and per (m x rad/s). On subject01 (muscles scaled with the model, toes
+  // passive) 100 / 10 tracked every coordinate within 5 deg; 40 / 4 left the subtalar angles at 5-7
+  // deg, 200 / 20 and more went unstable (15-25 deg) - measured.
+  double reflex_kp = 100, reflex_kv = 10;
+  // Passive joints: a spring-damper towards the coordinate's default value on the coordinates whose
+  // names start with this prefix, as a joint's ligaments and soft tissue would. gait2392's toes have
+  // none: crossed only by the long toe flexors and extensors, which static optimization leaves idle
+  // (the measured GRF acts on the calcaneus), they bent to 100-150 deg under the toe spheres -
+  // measured. Empty prefix: none.
+  std::string passive_coordinate_prefix = "mtp_";
+  double passive_stiffness_Nm_per_rad = 100, passive_damping_Nms_per_rad = 0.5;
   double control_interval_s = 0.001;
   double integrator_tolerance = 1e-3;
   bool compliant_tendons = true;
