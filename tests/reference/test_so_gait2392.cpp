@@ -253,6 +253,13 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   EXPECT_NEAR(r.stride_time_s, c.cycle_s, 0.05 * c.cycle_s);
   EXPECT_GE(r.heel_strikes_l_s.size(), 1u);
 
+  // Without residuals: how far it walks before the pelvis drops below 75 % of its height.
+  ReproducedGaitOptions free = o;
+  free.pelvis_residuals = false;
+  const ReproducedGaitResult rf = reproduce_gait(m, c.fit.model, kin, feet, free);
+  std::printf("[ info ] gait without residuals: %s\n", rf.BriefReport().c_str());
+  EXPECT_GT(rf.distance_m, 0.5);
+
   // The speed knob: +-20 % gives strides 20 % shorter or longer in time (the belt sped up alike). The
   // left leg's tracking degrades there (reported).
   for (double speed : {0.8, 1.2}) {

@@ -327,10 +327,10 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
 std::string ReproducedGaitResult::BriefReport() const {
   char buf[500];
   std::snprintf(buf, sizeof buf,
-                "Gait: %.2f s simulated in %.2f s (%.1fx real time); %zu right and %zu left heel strikes; stride %.3f s, "
+                "Gait: %.2f s simulated in %.2f s (%.1fx real time, %ld integrator steps); %zu right and %zu left heel strikes; stride %.3f s, "
                 "%.3f m, %.2f m/s; worst rotation RMS vs reference %s %.2f deg; pelvis residual force %.1f %% BW, moment "
                 "%.1f N m; %s",
-                time_s.empty() ? 0.0 : time_s.back(), solve_seconds, real_time_factor(), heel_strikes_r_s.size(),
+                time_s.empty() ? 0.0 : time_s.back(), solve_seconds, real_time_factor(), integrator_steps, heel_strikes_r_s.size(),
                 heel_strikes_l_s.size(), stride_time_s, stride_length_m, speed_m_s, worst_rotation.c_str(),
                 worst_rotation_rms_rad * 180 / M_PI, mean_residual_force_percent_bw, mean_residual_moment_Nm,
                 fell_at_s >= 0 ? ("fell at " + std::to_string(fell_at_s) + " s after " + std::to_string(distance_m) + " m").c_str()
