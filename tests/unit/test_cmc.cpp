@@ -2,6 +2,7 @@
 // on the fixture walker.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 
 #include "cpgait/activation/computed_muscle_control.h"
@@ -106,12 +107,16 @@ TEST(RosenbrockW, SecondOrderAndStableOnStiffModes) {
 
 TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
   // (I - gh J) k = rhs with J from finite differences of the stiff blocks: check W k against rhs
-  // by applying J explicitly through the same blocks, for compliant and rigid tendons.
+  // by applying J explicitly through the same blocks, for compliant and rigid tendons, and with the
+  // feet pressing into sliding ground (contact damping and stiffness).
   const Model& m = walker();
-  for (bool compliant : {true, false}) {
+  ContactSet feet = default_foot_contacts(m);
+  for (int variant = 0; variant < 3; ++variant) {
+    const bool compliant = variant != 1, contact = variant == 2;
     MuscleDrivenSystem sys;
     sys.model = &m;
     sys.compliant_tendons = compliant;
+    if (contact) sys.contacts = &feet;
     MuscleDrivenWorkspace ws(sys);
     MuscleDrivenJacobian jac;
     const int nq = m.num_coordinates(), nm = sys.num_muscles(), n = sys.state_size();
@@ -120,8 +125,24 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
     for (int j = 0; j < nm; ++j) x[sys.activation_index(j)] = 0.3;
     if (compliant)
       for (int j = 0; j < nm; ++j) x[sys.fiber_length_index(j)] = m.muscles[j].optimal_fiber_length_m;
+    if (contact) {
+      // The ground 5 mm into the lowest sphere, moving backwards under it (a treadmill).
+      KinematicsWorkspace<double> kws(m);
+      forward_kinematics(m, x.data(), kws);
+      double lowest = 1e9;
+      for (const auto& s : feet.spheres)
+        lowest = std::min(lowest, (kws.body_in_ground[s.body].rotation * s.location_m + kws.body_in_ground[s.body].translation_m).y() - s.radius_m);
+      feet.ground_height_m = lowest + 0.005;
+      feet.ground_velocity_m_s = {-0.05, 0, 0};
+    }
     const Eigen::VectorXd u = Eigen::VectorXd::Constant(nm, 0.6);
     muscle_driven_prepare(sys, 0.0, x, u, none, ws, jac, f0);
+    if (contact) {
+      ASSERT_EQ(jac.contact_damping.rows(), nq);
+      EXPECT_GT(jac.contact_damping.trace(), 0.0);
+      EXPECT_GT(jac.contact_stiffness.trace(), 0.0);
+      EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(jac.contact_damping).eigenvalues().minCoeff(), -1e-9);
+    }
     const Eigen::VectorXd rhs = Eigen::VectorXd::Random(n);
     const double gh = 2e-3;
     muscle_driven_w_solve(sys, jac, gh, rhs, k);
@@ -142,8 +163,9 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
     }
     Eigen::VectorXd Ju = jac.moment_arm.transpose() * g;
     if (!compliant) Ju -= jac.moment_arm.transpose() * (jac.dF_dV.asDiagonal() * (jac.moment_arm * k.segment(nq, nq)));
+    if (contact) Ju -= jac.contact_damping * k.segment(nq, nq) + jac.contact_stiffness * k.head(nq);
     Wk.segment(nq, nq) -= gh * jac.M.llt().solve(Ju);
-    EXPECT_LT((Wk - rhs).cwiseAbs().maxCoeff(), 1e-9) << (compliant ? "compliant" : "rigid");
+    EXPECT_LT((Wk - rhs).cwiseAbs().maxCoeff(), 1e-9) << "variant " << variant;
     if (compliant) {
       EXPECT_LT(jac.dl_dl.maxCoeff(), 0.0);  // a longer fibre shortens faster: the stiff, stable mode
     }

@@ -3,6 +3,7 @@
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/thelen2003.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 
 namespace cpgait {
@@ -127,6 +128,37 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen:
       jac.dF_dV[m] = std::max(0.0, (thelen2003::rigid_tendon_active_force(mu, a, L, V + dV) - F) / dV);
     }
   }
+  // Contact: each sphere's force against its centre's velocity (and height), by differences, mapped
+  // through the centre's velocity Jacobian.
+  const int nq = sys.num_coordinates();
+  jac.contact_damping.resize(0, 0);
+  jac.contact_stiffness.resize(0, 0);
+  if (sys.contacts && !sys.contacts->spheres.empty()) {
+    jac.contact_damping.setZero(nq, nq);
+    jac.contact_stiffness.setZero(nq, nq);
+    const ContactSet& set = *sys.contacts;
+    const double* u = x.data() + nq;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, nq);
+    for (std::size_t i = 0; i < set.spheres.size(); ++i) {
+      const ContactSphere& s = set.spheres[i];
+      const auto& B = ws.fd.kinematics.body_in_ground[s.body];
+      const Eigen::Vector3d c = B.rotation * s.location_m + B.translation_m;
+      const Eigen::Vector3d v = point_velocity_in_ground(ws.fd.S, ws.sphere_coordinates[i], c, u);
+      const Eigen::Vector3d f0 = sphere_contact_force(s, set, c, v);
+      if (f0.y() < 1e-6) continue;  // not touching: nothing stiff
+      Eigen::Matrix3d C;
+      const double dv = 1e-6;
+      for (int j = 0; j < 3; ++j) C.col(j) = -(sphere_contact_force(s, set, c, v + dv * Eigen::Vector3d::Unit(j)) - f0) / dv;
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (C + C.transpose()));
+      const Eigen::Matrix3d C_psd = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+      const double dp = 1e-7;
+      const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v).y() - f0.y()) / dp);
+      J.setZero();
+      for (int q : ws.sphere_coordinates[i]) J.col(q) = ws.fd.S.columns.col(q).head<3>().cross(c) + ws.fd.S.columns.col(q).tail<3>();
+      jac.contact_damping.noalias() += J.transpose() * C_psd * J;
+      jac.contact_stiffness.noalias() += k_yy * J.row(1).transpose() * J.row(1);
+    }
+  }
 }
 
 void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& jac, double gh, const Eigen::VectorXd& rhs,
@@ -145,13 +177,16 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
       jac.g[m] = jac.dF_da[m] * k[ia];
     }
   }
-  // (M + gh R^T D R) k_u = M rhs_u + gh R^T g
+  // (M + gh (R^T D R + D_c) + gh^2 K_c) k_u = M rhs_u + gh R^T g - gh K_c rhs_q, with k_q = rhs_q + gh k_u
   jac.W = jac.M;
   if (!sys.compliant_tendons && nm > 0)
     jac.W.noalias() += gh * jac.moment_arm.transpose() * jac.dF_dV.asDiagonal() * jac.moment_arm;
+  const bool contact = jac.contact_damping.rows() == nq;
+  if (contact) jac.W += gh * jac.contact_damping + gh * gh * jac.contact_stiffness;
   jac.llt.compute(jac.W);
   Eigen::VectorXd b = jac.M * rhs.segment(nq, nq);
   if (nm > 0) b.noalias() += gh * jac.moment_arm.transpose() * jac.g;
+  if (contact) b.noalias() -= gh * jac.contact_stiffness * rhs.head(nq);
   k.segment(nq, nq) = jac.llt.solve(b);
   k.head(nq) = rhs.head(nq) + gh * k.segment(nq, nq);
 }

@@ -68,7 +68,11 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const 
 struct MuscleDrivenJacobian {
   Eigen::MatrixXd M, moment_arm;  // at the step's start
   Eigen::VectorXd da_da, dl_dl, dl_da, dF_dl, dF_da, dF_dV;
-  Eigen::MatrixXd W;              // scratch: M + gamma h R^T diag(dF/dV) R
+  // Contact spheres: generalized damping sum J^T C J (C: -dF/dv, symmetric part, negative
+  // eigenvalues dropped) and normal stiffness sum k J_y^T J_y, the stiff terms of foot-ground contact
+  // (friction's slope near zero slip and the Hunt-Crossley normal force); empty without contact.
+  Eigen::MatrixXd contact_damping, contact_stiffness;
+  Eigen::MatrixXd W;              // scratch: M + gamma h (R^T diag(dF/dV) R + D_c) + (gamma h)^2 K_c
   Eigen::LLT<Eigen::MatrixXd> llt;
   Eigen::VectorXd g;
 };
@@ -77,7 +81,8 @@ struct MuscleDrivenJacobian {
 void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t_s, const Eigen::VectorXd& x,
                            const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
                            MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot);
-// k = (I - gamma_h J)^-1 rhs with the prepared J (block triangular: activation, fibre, speed, position).
+// k = (I - gamma_h J)^-1 rhs with the prepared J (block triangular: activation, fibre, then speed and
+// position together through the contact terms).
 void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& jac, double gamma_h,
                            const Eigen::VectorXd& rhs, Eigen::VectorXd& k);
 
