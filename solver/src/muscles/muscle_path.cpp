@@ -1,50 +1,62 @@
 #include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait {
-namespace {
 
-// Position of a path point in ground and its Jacobian (3 x nq) with respect to all coordinates.
-void point_and_jacobian(const Model& model, const PathPoint& p, const double* q, const KinematicsWorkspace<double>& ws,
-                        const MotionSubspace& S, Eigen::Vector3d& x, Eigen::Matrix3Xd& J) {
-  const auto& B = ws.body_in_ground[p.body];
-  x = B.rotation * path_point_location(p, q) + B.translation_m;
-  J.setZero();
-  for (int body = p.body; body > 0;) {
-    const Joint& j = model.joints[model.bodies[body].joint];
-    for (int c : j.coordinates) J.col(c) = S.columns.col(c).head<3>().cross(x) + S.columns.col(c).tail<3>();
-    body = j.parent_body;
-  }
-  if (p.kind == PathPoint::Kind::kMoving)
-    for (int a = 0; a < 3; ++a)
-      if (p.moving_coordinates[a] >= 0)
-        J.col(p.moving_coordinates[a]) +=
-            B.rotation.col(a) * p.moving_functions[a].derivative(q[p.moving_coordinates[a]]);
-}
-
-}  // namespace
-
+// dL/dq by segments: for a straight segment from point a (on body A) to b (on body B) with unit
+// direction e, dL/dq_c = e . (dx_b/dq_c - dx_a/dq_c). A coordinate moving both bodies moves the
+// segment rigidly (e . (w x d) = 0 for d along e), so only the joints between A and B, below their
+// common ancestor, contribute: +e . (w_c x x_b + v_c) on B's side, -e . (w_c x x_a + v_c) on A's, plus
+// a moving point's own motion along its body's axes.
 void muscle_path_geometry(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                           const MotionSubspace& S, MusclePathGeometry& out) {
-  const int nq = model.num_coordinates();
-  Eigen::Matrix3Xd J_prev(3, nq), J(3, nq);
-  Eigen::Vector3d x_prev, x;
+  const int nq = model.num_coordinates(), nb = static_cast<int>(model.bodies.size());
+  // Depth of each body in the tree (ground 0), for the walk to the common ancestor.
+  std::vector<int> depth(nb, 0);
+  for (const Joint& j : model.joints) depth[j.child_body] = depth[j.parent_body] + 1;  // parents come first
+  auto parent = [&](int body) { return model.joints[model.bodies[body].joint].parent_body; };
+  auto add_chain = [&](int body, const Eigen::Vector3d& x, const Eigen::Vector3d& e, double sign, double* row) {
+    const Joint& j = model.joints[model.bodies[body].joint];
+    for (int c : j.coordinates) row[c] += sign * e.dot(S.columns.col(c).head<3>().cross(x) + S.columns.col(c).tail<3>());
+  };
+  auto add_moving = [&](const PathPoint& p, const Eigen::Vector3d& e, double sign, double* row) {
+    if (p.kind != PathPoint::Kind::kMoving) return;
+    const auto& R = ws.body_in_ground[p.body].rotation;
+    for (int a = 0; a < 3; ++a)
+      if (p.moving_coordinates[a] >= 0)
+        row[p.moving_coordinates[a]] += sign * e.dot(R.col(a)) * p.moving_functions[a].derivative(q[p.moving_coordinates[a]]);
+  };
+  Eigen::RowVectorXd dL_dq(nq);
   const Eigen::Map<const Eigen::VectorXd> qdot(qd, nq);
   for (std::size_t m = 0; m < model.muscles.size(); ++m) {
     double length = 0;
-    Eigen::RowVectorXd dL_dq = Eigen::RowVectorXd::Zero(nq);
-    bool have_previous = false;
+    dL_dq.setZero();
+    const PathPoint* prev = nullptr;
+    Eigen::Vector3d x_prev = Eigen::Vector3d::Zero();
     for (const PathPoint& p : model.muscles[m].path) {
       if (p.kind == PathPoint::Kind::kConditional && !path_point_active(p, q[p.coordinate])) continue;
-      point_and_jacobian(model, p, q, ws, S, x, J);
-      if (have_previous) {
+      const auto& B = ws.body_in_ground[p.body];
+      const Eigen::Vector3d x = B.rotation * path_point_location(p, q) + B.translation_m;
+      if (prev) {
         const Eigen::Vector3d d = x - x_prev;
         const double n = d.norm();
         length += n;
-        if (n > 0) dL_dq += (d / n).transpose() * (J - J_prev);
+        if (n > 0) {
+          const Eigen::Vector3d e = d / n;
+          for (int b = p.body, a = prev->body; a != b;) {
+            if (depth[b] >= depth[a]) {
+              add_chain(b, x, e, +1.0, dL_dq.data());
+              b = parent(b);
+            } else {
+              add_chain(a, x_prev, e, -1.0, dL_dq.data());
+              a = parent(a);
+            }
+          }
+          add_moving(p, e, +1.0, dL_dq.data());
+          add_moving(*prev, e, -1.0, dL_dq.data());
+        }
       }
       x_prev = x;
-      J_prev = J;
-      have_previous = true;
+      prev = &p;
     }
     out.length_m[m] = length;
     out.moment_arm_m.row(m) = -dL_dq;
