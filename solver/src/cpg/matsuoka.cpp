@@ -27,16 +27,18 @@ MatsuokaState MatsuokaState::resting(const MatsuokaNetwork& n) {
 }
 
 void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& st, const Eigen::VectorXd& u, MatsuokaState& r) {
-  // Written out so the inner loop of fitting allocates nothing.
+  // Written so that the inner loop of fitting allocates nothing: the outputs y = max(x, 0) go through
+  // r.f, the inhibition a y through r.x (one vectorized matrix-vector product, column by column).
   const Eigen::Index N = n.s.size();
   r.x.resize(N);
   r.f.resize(N);
+  r.f = st.x.cwiseMax(0.0);
+  r.x.noalias() = n.a * r.f;
   const bool input = u.size() == N;
   for (Eigen::Index i = 0; i < N; ++i) {
-    double inhibition = 0;
-    for (Eigen::Index j = 0; j < N; ++j) inhibition += n.a(i, j) * std::max(st.x[j], 0.0);
+    const double y = r.f[i], inhibition = r.x[i];
     r.x[i] = (-st.x[i] + n.s[i] - n.b[i] * st.f[i] - inhibition + (input ? u[i] : 0.0)) / n.tau_r_s[i];
-    r.f[i] = (-st.f[i] + std::max(st.x[i], 0.0)) / n.tau_a_s[i];
+    r.f[i] = (-st.f[i] + y) / n.tau_a_s[i];
   }
 }
 

@@ -22,7 +22,7 @@ struct MatsuokaState {
   static MatsuokaState resting(const MatsuokaNetwork& n);  // small asymmetric start, so pairs swing
 };
 
-// dx/dt and df/dt at a state, with external input u (empty: none).
+// dx/dt and df/dt at a state, with external input u (empty: none); rates must not be state itself.
 void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& state, const Eigen::VectorXd& u, MatsuokaState& rates);
 
 // One classical Runge-Kutta step in place; `scratch` holds the stages (sized on first use).
