@@ -133,6 +133,15 @@ VersusOpenSim compare_with_opensim(const Model& m, const ComputedMuscleControlRe
   return v;
 }
 
+// CMC on subject01's setup (measured loads, 0.5-2.0 s) with model m (the setup's, or a variant).
+ComputedMuscleControlResult run_subject01(const Model& m, const Subject01Cmc& in, const std::string& pl) {
+  const ResolvedActuators actuators(m, in.specs);
+  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  ComputedMuscleControlOptions o;
+  o.time_range_s = std::make_pair(0.5, 2.0);
+  return computed_muscle_control(m, in.kinematics, &loads, nullptr, actuators, in.tasks, &in.constraints, o);
+}
+
 }  // namespace
 
 TEST(CmcGait2392, TracksLikeOpenSimWithMeasuredLoads) {
@@ -142,12 +151,7 @@ TEST(CmcGait2392, TracksLikeOpenSimWithMeasuredLoads) {
     REQUIRE_REFERENCE(p);
   const Subject01Cmc in = load(pl);
   const Model& m = in.model;
-  const ResolvedActuators actuators(m, in.specs);
-  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
-  ComputedMuscleControlOptions o;
-  o.time_range_s = std::make_pair(0.5, 2.0);
-  const ComputedMuscleControlResult r =
-      computed_muscle_control(m, in.kinematics, &loads, nullptr, actuators, in.tasks, &in.constraints, o);
+  const ComputedMuscleControlResult r = run_subject01(m, in, pl);
   std::printf("[ info ] %s\n", r.summary.BriefReport().c_str());
   EXPECT_EQ(r.summary.external_forces, "measured loads");
   EXPECT_EQ(r.summary.windows_infeasible, 0);
@@ -178,12 +182,7 @@ TEST(CmcGait2392, MuscleForcesWithMusclesScaledAsOpenSimScales) {
   EXPECT_EQ(ms.muscles_scaled, 92);
   EXPECT_FALSE(unscaled_muscles_warning(in.model).empty());
   EXPECT_TRUE(unscaled_muscles_warning(m).empty());
-  const ResolvedActuators actuators(m, in.specs);
-  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
-  ComputedMuscleControlOptions o;
-  o.time_range_s = std::make_pair(0.5, 2.0);
-  const ComputedMuscleControlResult r =
-      computed_muscle_control(m, in.kinematics, &loads, nullptr, actuators, in.tasks, &in.constraints, o);
+  const ComputedMuscleControlResult r = run_subject01(m, in, pl);
   std::printf("[ info ] scaled muscles: %s\n", r.summary.BriefReport().c_str());
   EXPECT_EQ(r.summary.windows_infeasible, 0);
   const VersusOpenSim v = compare_with_opensim(m, r, ref, "scaled muscles");
