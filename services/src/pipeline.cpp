@@ -9,11 +9,11 @@
 #include "cpgait/capture/json_input.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/contact.h"
-#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/scale_muscle_parameters.h"
 #include "output_files.h"
 
 namespace cpgait::services {

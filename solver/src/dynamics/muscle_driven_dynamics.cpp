@@ -23,7 +23,7 @@ MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
 Eigen::Vector3d point_velocity_in_ground(const MotionSubspace& S, const std::vector<int>& body_coordinates,
                                          const Eigen::Vector3d& p, const double* u) {
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
-  for (int c : body_coordinates) v += (S.columns.col(c).head<3>().cross(p) + S.columns.col(c).tail<3>()) * u[c];
+  for (int c : body_coordinates) v += point_velocity_column(S, c, p) * u[c];
   return v;
 }
 
@@ -128,8 +128,8 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen:
       jac.dF_dV[m] = std::max(0.0, (thelen2003::rigid_tendon_active_force(mu, a, L, V + dV) - F) / dV);
     }
   }
-  // Contact: each sphere's force against its centre's velocity (and height), by differences, mapped
-  // through the centre's velocity Jacobian.
+  // Contact: each sphere's force (as the evaluation above found it) against its centre's velocity
+  // and height, by differences, mapped through the centre's velocity Jacobian.
   const int nq = sys.num_coordinates();
   jac.contact_damping.resize(0, 0);
   jac.contact_stiffness.resize(0, 0);
@@ -141,11 +141,10 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen:
     Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, nq);
     for (std::size_t i = 0; i < set.spheres.size(); ++i) {
       const ContactSphere& s = set.spheres[i];
-      const auto& B = ws.fd.kinematics.body_in_ground[s.body];
-      const Eigen::Vector3d c = B.rotation * s.location_m + B.translation_m;
-      const Eigen::Vector3d v = point_velocity_in_ground(ws.fd.S, ws.sphere_coordinates[i], c, u);
-      const Eigen::Vector3d f0 = sphere_contact_force(s, set, c, v);
+      const Eigen::Vector3d& f0 = ws.contact_force_N[i];
       if (f0.y() < 1e-6) continue;  // not touching: nothing stiff
+      const Eigen::Vector3d c = ws.contact_point_m[i] + s.radius_m * Eigen::Vector3d::UnitY();
+      const Eigen::Vector3d v = point_velocity_in_ground(ws.fd.S, ws.sphere_coordinates[i], c, u);
       Eigen::Matrix3d C;
       const double dv = 1e-6;
       for (int j = 0; j < 3; ++j) C.col(j) = -(sphere_contact_force(s, set, c, v + dv * Eigen::Vector3d::Unit(j)) - f0) / dv;
@@ -154,7 +153,7 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen:
       const double dp = 1e-7;
       const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v).y() - f0.y()) / dp);
       J.setZero();
-      for (int q : ws.sphere_coordinates[i]) J.col(q) = ws.fd.S.columns.col(q).head<3>().cross(c) + ws.fd.S.columns.col(q).tail<3>();
+      for (int q : ws.sphere_coordinates[i]) J.col(q) = point_velocity_column(ws.fd.S, q, c);
       jac.contact_damping.noalias() += J.transpose() * C_psd * J;
       jac.contact_stiffness.noalias() += k_yy * J.row(1).transpose() * J.row(1);
     }

@@ -86,7 +86,7 @@ class IkCost final : public ceres::CostFunction {
       if (!want_j) continue;
       double* J = jacobians[0] + 3 * i * nf;  // row-major
       for (int c : marker_coordinates_[i]) {
-        const Eigen::Vector3d d = S_.columns.col(c).head<3>().cross(p) + S_.columns.col(c).tail<3>();
+        const Eigen::Vector3d d = point_velocity_column(S_, c, p);
         const int k = free_slot_[c];
         J[k] = sw * d[0];
         J[nf + k] = sw * d[1];

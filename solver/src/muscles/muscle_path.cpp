@@ -16,7 +16,7 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
   auto parent = [&](int body) { return model.joints[model.bodies[body].joint].parent_body; };
   auto add_chain = [&](int body, const Eigen::Vector3d& x, const Eigen::Vector3d& e, double sign, double* row) {
     const Joint& j = model.joints[model.bodies[body].joint];
-    for (int c : j.coordinates) row[c] += sign * e.dot(S.columns.col(c).head<3>().cross(x) + S.columns.col(c).tail<3>());
+    for (int c : j.coordinates) row[c] += sign * e.dot(point_velocity_column(S, c, x));
   };
   auto add_moving = [&](const PathPoint& p, const Eigen::Vector3d& e, double sign, double* row) {
     if (p.kind != PathPoint::Kind::kMoving) return;

@@ -19,6 +19,11 @@ struct MotionSubspaceT {
 };
 using MotionSubspace = MotionSubspaceT<double>;
 
+// dp/dq_c = omega_c x p + v_c for a point p (ground frame) fixed on a body that coordinate c moves.
+inline Eigen::Vector3d point_velocity_column(const MotionSubspace& S, int c, const Eigen::Vector3d& p) {
+  return S.columns.col(c).head<3>().cross(p) + S.columns.col(c).tail<3>();
+}
+
 // Needs ws from forward_kinematics at the same q.
 template <typename T>
 void motion_subspace(const Model& model, const T* q, const KinematicsWorkspace<T>& ws, MotionSubspaceT<T>& S) {
