@@ -59,7 +59,8 @@ void place_ground_under_feet(const Model& model, ContactSet& set, const std::vec
                              const Eigen::MatrixXd& q_samples);
 
 // Two spheres per foot (heel and toes) on calcn_/toes_ bodies (gait2392 and its kin) or on foot_
-// bodies (the fixture walker): the default when a simulation has no GRF and no contact file.
+// bodies (the fixture walker): the default when a simulation has no GRF and no contact file. The toe
+// sphere is levelled with the heel's in the model's default pose, where the foot stands flat.
 ContactSet default_foot_contacts(const Model& model);
 
 }  // namespace cpgait
