@@ -9,7 +9,16 @@ namespace cpgait::thelen2003 {
 namespace {
 constexpr double kMinActivation = 0.01;          // OpenSim's activation_minimum_value
 constexpr double kFvExtrapolationThreshold = 0.95;
-constexpr double kMaxPennation = 1.4706289056333368;  // acos(0.1), OpenSim's default maximum
+// OpenSim's default maximum pennation is acos(0.1); its sine, sqrt(1 - 0.1^2), as a constant (the
+// muscle functions run for every muscle in every evaluation: sin() was 8 % of a simulation's time).
+constexpr double kSinMaxPennation = 0.99498743710661995;
+// The fibre's constant height (fixed-width pennation) and the shortest fibre length it allows.
+double fiber_height(const Muscle& m) { return m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad); }
+double min_fiber_length_for(const Muscle& m, double height) { return std::max(height / kSinMaxPennation, 0.01 * m.optimal_fiber_length_m); }
+double cos_pennation_for(const Muscle& m, double height, double lm) {
+  const double r = height / std::max(lm, min_fiber_length_for(m, height));
+  return std::sqrt(std::max(0.0, 1.0 - r * r));
+}
 }  // namespace
 
 double active_force_length(const Muscle& m, double l) { return std::exp(-(l - 1.0) * (l - 1.0) / m.kshape_active); }
@@ -83,26 +92,18 @@ double force_velocity_multiplier(const Muscle& m, double a, double fal, double v
 }
 
 RigidTendonFiber rigid_tendon_fiber(const Muscle& m, double L, double V) {
-  const double height = m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad);
+  const double height = fiber_height(m);
   const double along_tendon = L - m.tendon_slack_length_m;
   // Fixed-width pennation: the fibre is the hypotenuse over the parallelogram's height, never
   // shorter than the length at which pennation reaches its maximum.
-  const double min_length = std::max(height / std::sin(kMaxPennation), 0.01 * m.optimal_fiber_length_m);
-  const double fiber = std::max(std::sqrt(height * height + along_tendon * along_tendon), min_length);
+  const double fiber = std::max(std::sqrt(height * height + along_tendon * along_tendon), min_fiber_length_for(m, height));
   const double cos_pen = std::sqrt(std::max(0.0, 1.0 - (height / fiber) * (height / fiber)));
   return {fiber, cos_pen, V * cos_pen};
 }
 
-double cos_pennation(const Muscle& m, double lm) {
-  const double height = m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad);
-  const double r = height / std::max(lm, min_fiber_length(m));
-  return std::sqrt(std::max(0.0, 1.0 - r * r));
-}
+double cos_pennation(const Muscle& m, double lm) { return cos_pennation_for(m, fiber_height(m), lm); }
 
-double min_fiber_length(const Muscle& m) {
-  const double height = m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad);
-  return std::max(height / std::sin(kMaxPennation), 0.01 * m.optimal_fiber_length_m);
-}
+double min_fiber_length(const Muscle& m) { return min_fiber_length_for(m, fiber_height(m)); }
 
 double active_fiber_force_along_tendon(const Muscle& m, double activation, double lm, double vm) {
   const double a = std::clamp(activation, kMinActivation, 1.0);
@@ -127,8 +128,9 @@ double rigid_tendon_passive_force(const Muscle& m, double L) {
 }
 
 CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm) {
-  lm = std::max(lm, min_fiber_length(m));
-  const double cos_pen = cos_pennation(m, lm);
+  const double height = fiber_height(m);
+  lm = std::max(lm, min_fiber_length_for(m, height));
+  const double cos_pen = cos_pennation_for(m, height, lm);
   const double tendon = L - lm * cos_pen;
   const double force = m.max_isometric_force_N * tendon_force_strain(m, tendon / m.tendon_slack_length_m);
   const double a = std::clamp(activation, kMinActivation, 1.0);

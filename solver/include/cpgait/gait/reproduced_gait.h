@@ -30,8 +30,9 @@ struct ReproducedGaitOptions {
   bool pelvis_residuals = true;
   double pelvis_kp = 100, pelvis_kv = 20;      // 1/s^2, 1/s on the pelvis' errors
   // Excitation per (m x rad) and per (m x rad/s). On subject01 (muscles scaled with the model, toes
-  // passive) 100 / 10 tracked every coordinate within 5 deg; 40 / 4 left the subtalar angles at 5-7
-  // deg, 200 / 20 and more went unstable (15-25 deg) - measured.
+  // passive, rigid tendons) 100 / 10 tracked every coordinate within 3.4 deg; 60 / 6 within 4.7 deg;
+  // 40 / 4 let subtalar_l drift 18 deg; 150 / 15 to 300 / 30 tracked closer (2.6-2.1 deg) but pushed
+  // the pelvis residual from 79 to 84-91 % BW, and at 300 / 30 the stride grew to 1.51 s - measured.
   double reflex_kp = 100, reflex_kv = 10;
   // Passive joints: a spring-damper towards the coordinate's default value on the coordinates whose
   // names start with this prefix, as a joint's ligaments and soft tissue would. gait2392's toes have
@@ -42,7 +43,12 @@ struct ReproducedGaitOptions {
   double passive_stiffness_Nm_per_rad = 100, passive_damping_Nms_per_rad = 0.5;
   double control_interval_s = 0.001;
   double integrator_tolerance = 1e-3;
-  bool compliant_tendons = true;
+  // Rigid tendons by default: the CPG is fitted to static optimization's activations, which assume
+  // them. On subject01 rigid tendons tracked within 3.4 deg at every speed knob setting (compliant:
+  // 4.4 deg, and 20-25 deg at speed 1.2), strode 1.237 s against the trial's 1.234 s (1.20 s) and
+  // took 4.7k integrator steps instead of 11.8k - measured. Compliant (OpenSim's Thelen2003Muscle)
+  // suits a CPG fitted to CMC's excitations.
+  bool compliant_tendons = false;
   double fall_height_fraction = 0.75;          // pelvis height below this share of its start: fallen
 };
 
