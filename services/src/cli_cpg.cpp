@@ -172,11 +172,17 @@ void add_cpg_commands(CLI::App& app) {
   gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
   gait->add_option("--reflex-kp", g->options.reflex_kp, "joint-angle reflex gain, excitation per (m x rad)")->capture_default_str();
   gait->add_option("--reflex-kv", g->options.reflex_kv, "joint-speed reflex gain, excitation per (m x rad/s)")->capture_default_str();
+  gait->add_option("--tolerance", g->options.integrator_tolerance, "integrator error tolerance (relative and absolute)")
+      ->check(CLI::Range(1e-8, 1e-1))
+      ->capture_default_str();
   gait->add_flag("--compliant-tendons", g->options.compliant_tendons,
                  "compliant tendons (OpenSim's Thelen2003Muscle; suits a CPG fitted to CMC excitations). Default: rigid, as static "
                  "optimization assumes");
   gait->add_option("--passive-stiffness", g->options.passive_stiffness_Nm_per_rad,
                    "stiffness of the passive joints (coordinates named mtp_*), N m/rad; 0: none")
+      ->capture_default_str();
+  gait->add_option("--passive-damping", g->options.passive_damping_Nms_per_rad, "damping of the passive joints, N m s/rad")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   gait->add_option("--contacts", g->contacts, "contact spheres JSON (cpgait.contact/1); default: two per foot")->check(CLI::ExistingFile);
   gait->add_option("-o,--output", g->out, "output prefix")->required();

@@ -26,14 +26,16 @@ MatsuokaState MatsuokaState::resting(const MatsuokaNetwork& n) {
   return st;
 }
 
-void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& st, const Eigen::VectorXd& u, MatsuokaState& r) {
+void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& st, const Eigen::VectorXd& u, MatsuokaState& r,
+                    const Eigen::SparseMatrix<double>* sparse_a) {
   // Written so that the inner loop of fitting allocates nothing: the outputs y = max(x, 0) go through
   // r.f, the inhibition a y through r.x (one vectorized matrix-vector product, column by column).
   const Eigen::Index N = n.s.size();
   r.x.resize(N);
   r.f.resize(N);
   r.f = st.x.cwiseMax(0.0);
-  r.x.noalias() = n.a * r.f;
+  if (sparse_a) r.x.noalias() = *sparse_a * r.f;
+  else r.x.noalias() = n.a * r.f;
   const bool input = u.size() == N;
   for (Eigen::Index i = 0; i < N; ++i) {
     const double y = r.f[i], inhibition = r.x[i];
@@ -42,19 +44,22 @@ void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& st, const Eig
   }
 }
 
+void matsuoka_prepare(const MatsuokaNetwork& n, MatsuokaScratch& w) { w.a = n.a.sparseView(); }
+
 void matsuoka_step(const MatsuokaNetwork& n, MatsuokaState& st, double dt, const Eigen::VectorXd& u, MatsuokaScratch& w) {
-  matsuoka_rates(n, st, u, w.k1);
+  const Eigen::SparseMatrix<double>* a = w.a.rows() == n.size() ? &w.a : nullptr;
+  matsuoka_rates(n, st, u, w.k1, a);
   w.tmp.x.resize(st.x.size());
   w.tmp.f.resize(st.f.size());
   w.tmp.x = st.x + 0.5 * dt * w.k1.x;
   w.tmp.f = st.f + 0.5 * dt * w.k1.f;
-  matsuoka_rates(n, w.tmp, u, w.k2);
+  matsuoka_rates(n, w.tmp, u, w.k2, a);
   w.tmp.x = st.x + 0.5 * dt * w.k2.x;
   w.tmp.f = st.f + 0.5 * dt * w.k2.f;
-  matsuoka_rates(n, w.tmp, u, w.k3);
+  matsuoka_rates(n, w.tmp, u, w.k3, a);
   w.tmp.x = st.x + dt * w.k3.x;
   w.tmp.f = st.f + dt * w.k3.f;
-  matsuoka_rates(n, w.tmp, u, w.k4);
+  matsuoka_rates(n, w.tmp, u, w.k4, a);
   st.x += dt / 6.0 * (w.k1.x + 2 * w.k2.x + 2 * w.k3.x + w.k4.x);
   st.f += dt / 6.0 * (w.k1.f + 2 * w.k2.f + 2 * w.k3.f + w.k4.f);
 }
@@ -62,6 +67,7 @@ void matsuoka_step(const MatsuokaNetwork& n, MatsuokaState& st, double dt, const
 Eigen::MatrixXd simulate_matsuoka(const MatsuokaNetwork& n, MatsuokaState& st, double dt, int steps, const Eigen::MatrixXd& input) {
   Eigen::MatrixXd out(steps, n.size());
   MatsuokaScratch w;
+  if (steps > 1) matsuoka_prepare(n, w);
   Eigen::VectorXd u;
   for (int i = 0; i < steps; ++i) {
     if (input.rows() > i) u = input.row(i).transpose();

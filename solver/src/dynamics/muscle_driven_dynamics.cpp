@@ -12,6 +12,7 @@ MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
     : fd(*sys.model), geometry(*sys.model), actuator_columns(sys.num_coordinates(), sys.num_actuators()),
       external(sys.model->bodies.size(), Vector6d::Zero()), tau(sys.num_coordinates()),
       muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
+      active_force_N(Eigen::VectorXd::Zero(sys.num_muscles())),
       actuator_force(sys.num_actuators()) {
   if (sys.contacts) {
     for (const auto& s : sys.contacts->spheres) sphere_coordinates.push_back(ancestor_coordinates(*sys.model, s.body));
@@ -76,8 +77,8 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
         ws.fiber_velocity_m_s[m] = f.fiber_velocity_m_s;
         xdot[sys.fiber_length_index(m)] = f.fiber_velocity_m_s;
       } else {
-        ws.muscle_force_N[m] =
-            thelen2003::rigid_tendon_active_force(mu, a, l, v) + thelen2003::rigid_tendon_passive_force(mu, l);
+        ws.active_force_N[m] = thelen2003::rigid_tendon_active_force(mu, a, l, v);
+        ws.muscle_force_N[m] = ws.active_force_N[m] + thelen2003::rigid_tendon_passive_force(mu, l);
       }
       xdot[sys.activation_index(m)] = thelen_activation_rate(mu, excitation[m], a);
     }
@@ -97,6 +98,11 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen:
                            const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
                            MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot) {
   muscle_driven_derivatives(sys, t, x, excitation, control, ws, xdot);
+  muscle_driven_jacobian(sys, x, excitation, ws, jac, xdot);
+}
+
+void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd& x, const Eigen::VectorXd& excitation,
+                            const MuscleDrivenWorkspace& ws, MuscleDrivenJacobian& jac, const Eigen::VectorXd& xdot) {
   const Model& model = *sys.model;
   const int nm = sys.num_muscles();
   jac.M = ws.fd.M;
@@ -122,12 +128,15 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen:
       jac.dl_da[m] = (fa.fiber_velocity_m_s - f0.fiber_velocity_m_s) / da;
       jac.dF_dl[m] = (fl.force_N - f0.force_N) / dl;
     } else {
-      const double F = thelen2003::rigid_tendon_active_force(mu, a, L, V);
+      const double F = ws.active_force_N[m];
       const double dV = 1e-6 * mu.optimal_fiber_length_m * mu.max_contraction_velocity;
       jac.dF_da[m] = (thelen2003::rigid_tendon_active_force(mu, a + da, L, V) - F) / da;
       jac.dF_dV[m] = std::max(0.0, (thelen2003::rigid_tendon_active_force(mu, a, L, V + dV) - F) / dV);
     }
   }
+  jac.factored_gamma_h = -1;
+  if (!sys.compliant_tendons && nm > 0)
+    jac.muscle_damping.noalias() = jac.moment_arm.transpose() * jac.dF_dV.asDiagonal() * jac.moment_arm;
   // Contact: each sphere's force (as the evaluation above found it) against its centre's velocity
   // and height, by differences, mapped through the centre's velocity Jacobian.
   const int nq = sys.num_coordinates();
@@ -177,12 +186,14 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
     }
   }
   // (M + gh (R^T D R + D_c) + gh^2 K_c) k_u = M rhs_u + gh R^T g - gh K_c rhs_q, with k_q = rhs_q + gh k_u
-  jac.W = jac.M;
-  if (!sys.compliant_tendons && nm > 0)
-    jac.W.noalias() += gh * jac.moment_arm.transpose() * jac.dF_dV.asDiagonal() * jac.moment_arm;
   const bool contact = jac.contact_damping.rows() == nq;
-  if (contact) jac.W += gh * jac.contact_damping + gh * gh * jac.contact_stiffness;
-  jac.llt.compute(jac.W);
+  if (gh != jac.factored_gamma_h) {
+    jac.W = jac.M;
+    if (!sys.compliant_tendons && nm > 0) jac.W += gh * jac.muscle_damping;
+    if (contact) jac.W += gh * jac.contact_damping + gh * gh * jac.contact_stiffness;
+    jac.llt.compute(jac.W);
+    jac.factored_gamma_h = gh;
+  }
   Eigen::VectorXd b = jac.M * rhs.segment(nq, nq);
   if (nm > 0) b.noalias() += gh * jac.moment_arm.transpose() * jac.g;
   if (contact) b.noalias() -= gh * jac.contact_stiffness * rhs.head(nq);

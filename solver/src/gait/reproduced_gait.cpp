@@ -10,6 +10,7 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
+#include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/thelen2003.h"
 
 namespace cpgait {
@@ -118,6 +119,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   x.segment(nq, nq) = u_ref;
   MatsuokaState neurons = cpg.start;
   MatsuokaScratch scratch;
+  matsuoka_prepare(network, scratch);
   Eigen::VectorXd excitation(nm), no_controls(0);
   auto cpg_excitation_now = [&]() {
     for (int m = 0; m < nm; ++m) excitation[m] = model.muscles[m].min_control;
@@ -161,8 +163,21 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     muscle_driven_derivatives(sys, t, y, excitation, no_controls, ws, dy);
     if (any_extra) dy.segment(nq, nq) += ws.fd.llt.solve(extra_forces(y));
   };
+  // Each control interval starts with an evaluation at (t, x) for the residuals, reflexes and records;
+  // the interval's first step reuses it (its excitations changed since, so only the activation rates
+  // are redone): one evaluation fewer per interval.
+  bool start_evaluation_fresh = false;
+  Eigen::VectorXd xdot_start;
   auto prepare = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
-    muscle_driven_prepare(sys, t, y, excitation, no_controls, ws, jac, f0);
+    if (start_evaluation_fresh && &y == &x) {
+      f0 = xdot_start;
+      for (int m = 0; m < nm; ++m)
+        f0[sys.activation_index(m)] = thelen_activation_rate(model.muscles[m], excitation[m], y[sys.activation_index(m)]);
+      muscle_driven_jacobian(sys, y, excitation, ws, jac, f0);
+    } else {
+      muscle_driven_prepare(sys, t, y, excitation, no_controls, ws, jac, f0);
+    }
+    start_evaluation_fresh = false;
     if (any_extra) f0.segment(nq, nq) += ws.fd.llt.solve(extra_forces(y));
     // The passive joints' spring-damper in the W matrix too: on the light toes it is stiff (damping
     // over inertia ~2,500 /s), and left explicit it bounded the step size.
@@ -189,6 +204,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     // Forces at the current state without residuals: contact, muscles, geometry for the reflexes.
     tau_root.setZero();
     muscle_driven_derivatives(sys, t, x, excitation, no_controls, ws, xdot);
+    xdot_start = xdot;
+    start_evaluation_fresh = true;
     if (!passive.empty()) xdot.segment(nq, nq) += ws.fd.llt.solve(extra_forces(x));
     Eigen::VectorXd contact_row(3 * contacts.spheres.size());
     for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {

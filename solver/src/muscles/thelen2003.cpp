@@ -13,7 +13,15 @@ constexpr double kFvExtrapolationThreshold = 0.95;
 // muscle functions run for every muscle in every evaluation: sin() was 8 % of a simulation's time).
 constexpr double kSinMaxPennation = 0.99498743710661995;
 // The fibre's constant height (fixed-width pennation) and the shortest fibre length it allows.
-double fiber_height(const Muscle& m) { return m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad); }
+double fiber_height(const Muscle& m) {
+  // One muscle's functions run back to back (force, its derivatives), so the last sine is kept.
+  thread_local double last_angle = 0, last_sine = 0;
+  if (m.pennation_angle_at_optimal_rad != last_angle) {
+    last_angle = m.pennation_angle_at_optimal_rad;
+    last_sine = std::sin(last_angle);
+  }
+  return m.optimal_fiber_length_m * last_sine;
+}
 double min_fiber_length_for(const Muscle& m, double height) { return std::max(height / kSinMaxPennation, 0.01 * m.optimal_fiber_length_m); }
 double cos_pennation_for(const Muscle& m, double height, double lm) {
   const double r = height / std::max(lm, min_fiber_length_for(m, height));

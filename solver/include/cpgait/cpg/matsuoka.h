@@ -6,6 +6,7 @@
 // u: external input (feedback). Integrated with classical Runge-Kutta at a fixed step: the right
 // side is only piecewise linear, so a fixed step that resolves Tr is accurate and reproducible.
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 
 namespace cpgait {
 
@@ -23,12 +24,19 @@ struct MatsuokaState {
 };
 
 // dx/dt and df/dt at a state, with external input u (empty: none); rates must not be state itself.
-void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& state, const Eigen::VectorXd& u, MatsuokaState& rates);
+// sparse_a: n.a as a sparse matrix (matsuoka_prepare), or nullptr to use n.a.
+void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& state, const Eigen::VectorXd& u, MatsuokaState& rates,
+                    const Eigen::SparseMatrix<double>* sparse_a = nullptr);
 
 // One classical Runge-Kutta step in place; `scratch` holds the stages (sized on first use).
 struct MatsuokaScratch {
   MatsuokaState k1, k2, k3, k4, tmp;
+  Eigen::SparseMatrix<double> a;  // set by matsuoka_prepare; empty: steps use the network's dense a
 };
+// For a network stepped many times unchanged: its inhibition kept sparse in the scratch (fitted
+// networks are ~2 % non-zero: 708 of 178 x 178 weights on subject01), which later steps use. Call it
+// again whenever the network's a changes.
+void matsuoka_prepare(const MatsuokaNetwork& n, MatsuokaScratch& scratch);
 void matsuoka_step(const MatsuokaNetwork& n, MatsuokaState& state, double dt_s, const Eigen::VectorXd& u, MatsuokaScratch& scratch);
 
 // Advances `state` by `steps` steps of dt; returns outputs y (steps x neurons) after each step.

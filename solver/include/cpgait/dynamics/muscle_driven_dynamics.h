@@ -50,6 +50,7 @@ struct MuscleDrivenWorkspace {
   // Outputs of the last evaluation.
   Eigen::VectorXd muscle_force_N;      // along the tendon
   Eigen::VectorXd fiber_velocity_m_s;  // compliant tendons: d(fibre length)/dt
+  Eigen::VectorXd active_force_N;      // rigid tendons: the active part of muscle_force_N
   Eigen::VectorXd actuator_force;      // N or N m
   std::vector<Eigen::Vector3d> contact_force_N, contact_point_m;  // per sphere, ground frame
   explicit MuscleDrivenWorkspace(const MuscleDrivenSystem& sys);
@@ -72,8 +73,10 @@ struct MuscleDrivenJacobian {
   // eigenvalues dropped) and normal stiffness sum k J_y^T J_y, the stiff terms of foot-ground contact
   // (friction's slope near zero slip and the Hunt-Crossley normal force); empty without contact.
   Eigen::MatrixXd contact_damping, contact_stiffness;
-  Eigen::MatrixXd W;              // scratch: M + gamma h (R^T diag(dF/dV) R + D_c) + (gamma h)^2 K_c
+  Eigen::MatrixXd muscle_damping;  // rigid tendons: R^T diag(dF/dV) R, formed once per prepare
+  Eigen::MatrixXd W;              // M + gamma h (R^T diag(dF/dV) R + D_c) + (gamma h)^2 K_c, factored in llt
   Eigen::LLT<Eigen::MatrixXd> llt;
+  double factored_gamma_h = -1;   // the gamma h that llt holds (a step's stages share it); < 0: none
   Eigen::VectorXd g;
 };
 
@@ -81,6 +84,11 @@ struct MuscleDrivenJacobian {
 void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t_s, const Eigen::VectorXd& x,
                            const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
                            MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot);
+// The Jacobian part alone, for a caller whose ws and xdot already hold the evaluation at x (with
+// these excitations' activation rates): muscle forces, geometry and contact do not depend on the
+// excitations, so an evaluation made before they changed serves once the rates are redone.
+void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd& x, const Eigen::VectorXd& excitation,
+                            const MuscleDrivenWorkspace& ws, MuscleDrivenJacobian& jac, const Eigen::VectorXd& xdot);
 // k = (I - gamma_h J)^-1 rhs with the prepared J (block triangular: activation, fibre, then speed and
 // position together through the contact terms).
 void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& jac, double gamma_h,
