@@ -36,12 +36,12 @@ void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& st, const Eig
   r.f = st.x.cwiseMax(0.0);
   if (sparse_a) r.x.noalias() = *sparse_a * r.f;
   else r.x.noalias() = n.a * r.f;
-  const bool input = u.size() == N;
-  for (Eigen::Index i = 0; i < N; ++i) {
-    const double y = r.f[i], inhibition = r.x[i];
-    r.x[i] = (-st.x[i] + n.s[i] - n.b[i] * st.f[i] - inhibition + (input ? u[i] : 0.0)) / n.tau_r_s[i];
-    r.f[i] = (-st.f[i] + y) / n.tau_a_s[i];
-  }
+  // Whole-vector (SIMD) arithmetic: in the reproduced gait this runs four times per millisecond.
+  if (u.size() == N)
+    r.x = (n.s - st.x - n.b.cwiseProduct(st.f) - r.x + u).cwiseQuotient(n.tau_r_s);
+  else
+    r.x = (n.s - st.x - n.b.cwiseProduct(st.f) - r.x).cwiseQuotient(n.tau_r_s);
+  r.f = (r.f - st.f).cwiseQuotient(n.tau_a_s);
 }
 
 void matsuoka_prepare(const MatsuokaNetwork& n, MatsuokaScratch& w) { w.a = n.a.sparseView(); }
