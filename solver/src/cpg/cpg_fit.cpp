@@ -389,6 +389,10 @@ Eigen::VectorXd cpg_excitations(const CpgModel& m, const Eigen::VectorXd& y) {
   return (m.amplitude * (m.output_map * y + m.output_bias)).cwiseMax(0.0).cwiseMin(1.0);
 }
 
+Eigen::VectorXd cpg_excitations(const CpgModel& m, const Eigen::VectorXd& y, const Eigen::SparseMatrix<double>& output_map) {
+  return (m.amplitude * (output_map * y + m.output_bias)).cwiseMax(0.0).cwiseMin(1.0);
+}
+
 MatsuokaNetwork network_at_speed(const CpgModel& m) {
   MatsuokaNetwork n = m.network;
   n.tau_r_s /= m.speed;

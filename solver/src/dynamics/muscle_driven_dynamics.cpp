@@ -77,8 +77,9 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
         ws.fiber_velocity_m_s[m] = f.fiber_velocity_m_s;
         xdot[sys.fiber_length_index(m)] = f.fiber_velocity_m_s;
       } else {
-        ws.active_force_N[m] = thelen2003::rigid_tendon_active_force(mu, a, l, v);
-        ws.muscle_force_N[m] = ws.active_force_N[m] + thelen2003::rigid_tendon_passive_force(mu, l);
+        const auto f = thelen2003::rigid_tendon_forces(mu, a, l, v);
+        ws.active_force_N[m] = f.active_N;
+        ws.muscle_force_N[m] = f.active_N + f.passive_N;
       }
       xdot[sys.activation_index(m)] = thelen_activation_rate(mu, excitation[m], a);
     }

@@ -120,11 +120,12 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   MatsuokaState neurons = cpg.start;
   MatsuokaScratch scratch;
   matsuoka_prepare(network, scratch);
+  const Eigen::SparseMatrix<double> output_map = cpg.output_map.sparseView();
   Eigen::VectorXd excitation(nm), no_controls(0);
   auto cpg_excitation_now = [&]() {
     for (int m = 0; m < nm; ++m) excitation[m] = model.muscles[m].min_control;
     const Eigen::VectorXd y = neurons.x.cwiseMax(0.0);
-    const Eigen::VectorXd e = cpg_excitations(cpg, y);
+    const Eigen::VectorXd e = cpg_excitations(cpg, y, output_map);
     for (std::size_t k = 0; k < cpg_to_model.size(); ++k)
       if (cpg_to_model[k] >= 0) excitation[cpg_to_model[k]] = e[k];
   };
@@ -149,6 +150,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       passive.push_back(c);
 
   Eigen::VectorXd tau_root = Eigen::VectorXd::Zero(nq);  // the residuals, as generalized forces
+  Eigen::MatrixXd root_columns = Eigen::MatrixXd::Zero(nq, static_cast<Eigen::Index>(root.size()));  // picks the root's
+  for (std::size_t j = 0; j < root.size(); ++j) root_columns(root[j], static_cast<Eigen::Index>(j)) = 1.0;
   Eigen::VectorXd tau_extra(nq);
   // The residuals and the passive joints' torques, as generalized forces at state y.
   auto extra_forces = [&](const Eigen::VectorXd& y) -> const Eigen::VectorXd& {
@@ -218,9 +221,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     if (o.pelvis_residuals && !root.empty()) {
       // Only M^-1's root columns are needed: qdd = qdd0 + M^-1 E tau_root.
       const int nr = static_cast<int>(root.size());
-      Eigen::MatrixXd E = Eigen::MatrixXd::Zero(nq, nr);
-      for (int j = 0; j < nr; ++j) E(root[j], j) = 1.0;
-      const Eigen::MatrixXd Minv_root = ws.fd.llt.solve(E);
+      const Eigen::MatrixXd Minv_root = ws.fd.llt.solve(root_columns);
       Eigen::MatrixXd B(nr, nr);
       Eigen::VectorXd want(nr);
       for (int i = 0; i < nr; ++i) {
@@ -262,7 +263,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     if (o.reflex_kp != 0 || o.reflex_kv != 0) {
       Eigen::VectorXd e = q_ref - x.head(nq), ed = u_ref - x.segment(nq, nq);
       for (int c : root) e[c] = ed[c] = 0;
-      const Eigen::VectorXd drive = o.reflex_kp * (ws.geometry.moment_arm_m * e) + o.reflex_kv * (ws.geometry.moment_arm_m * ed);
+      const Eigen::VectorXd drive = ws.geometry.moment_arm_m * (o.reflex_kp * e + o.reflex_kv * ed);
       for (int m = 0; m < nm; ++m)
         excitation[m] = std::clamp(excitation[m] + drive[m], model.muscles[m].min_control, model.muscles[m].max_control);
     }

@@ -495,6 +495,7 @@ class Reader {
       mu.optimal_fiber_length_m = d_.number(n, "optimal_fiber_length", 0.0, true);
       mu.tendon_slack_length_m = d_.number(n, "tendon_slack_length", 0.0, true);
       mu.pennation_angle_at_optimal_rad = d_.number(n, "pennation_angle_at_optimal", 0.0);
+      mu.sin_pennation_at_optimal = std::sin(mu.pennation_angle_at_optimal_rad);
       mu.max_contraction_velocity = d_.number(n, "max_contraction_velocity", 10.0);
       if (mu.max_isometric_force_N <= 0 || mu.optimal_fiber_length_m <= 0 || mu.tendon_slack_length_m < 0)
         d_.fail(n, "max_isometric_force and optimal_fiber_length must be positive");

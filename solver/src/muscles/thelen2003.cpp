@@ -10,18 +10,11 @@ namespace {
 constexpr double kMinActivation = 0.01;          // OpenSim's activation_minimum_value
 constexpr double kFvExtrapolationThreshold = 0.95;
 // OpenSim's default maximum pennation is acos(0.1); its sine, sqrt(1 - 0.1^2), as a constant (the
-// muscle functions run for every muscle in every evaluation: sin() was 8 % of a simulation's time).
+// muscle functions run for every muscle in every evaluation: sin() was 8 % of a simulation's time,
+// hence also the muscle's own sine kept in the model).
 constexpr double kSinMaxPennation = 0.99498743710661995;
 // The fibre's constant height (fixed-width pennation) and the shortest fibre length it allows.
-double fiber_height(const Muscle& m) {
-  // One muscle's functions run back to back (force, its derivatives), so the last sine is kept.
-  thread_local double last_angle = 0, last_sine = 0;
-  if (m.pennation_angle_at_optimal_rad != last_angle) {
-    last_angle = m.pennation_angle_at_optimal_rad;
-    last_sine = std::sin(last_angle);
-  }
-  return m.optimal_fiber_length_m * last_sine;
-}
+double fiber_height(const Muscle& m) { return m.optimal_fiber_length_m * m.sin_pennation_at_optimal; }
 double min_fiber_length_for(const Muscle& m, double height) { return std::max(height / kSinMaxPennation, 0.01 * m.optimal_fiber_length_m); }
 double cos_pennation_for(const Muscle& m, double height, double lm) {
   const double r = height / std::max(lm, min_fiber_length_for(m, height));
@@ -113,26 +106,41 @@ double cos_pennation(const Muscle& m, double lm) { return cos_pennation_for(m, f
 
 double min_fiber_length(const Muscle& m) { return min_fiber_length_for(m, fiber_height(m)); }
 
-double active_fiber_force_along_tendon(const Muscle& m, double activation, double lm, double vm) {
+namespace {
+// The fibre forces along the tendon with cos(pennation) already known.
+double active_along_tendon(const Muscle& m, double activation, double lm, double vm, double cos_pen) {
   const double a = std::clamp(activation, kMinActivation, 1.0);
   const double lN = lm / m.optimal_fiber_length_m;
   const double vN = vm / (m.optimal_fiber_length_m * m.max_contraction_velocity);
   const double fal = active_force_length(m, lN);
   const double fv = force_velocity_multiplier(m, a, fal, vN);
-  return m.max_isometric_force_N * a * fal * fv * cos_pennation(m, lm);
+  return m.max_isometric_force_N * a * fal * fv * cos_pen;
+}
+double passive_along_tendon(const Muscle& m, double lm, double cos_pen) {
+  return m.max_isometric_force_N * passive_force_length(m, lm / m.optimal_fiber_length_m) * cos_pen;
+}
+}  // namespace
+
+double active_fiber_force_along_tendon(const Muscle& m, double activation, double lm, double vm) {
+  return active_along_tendon(m, activation, lm, vm, cos_pennation(m, lm));
 }
 
-double passive_fiber_force_along_tendon(const Muscle& m, double lm) {
-  return m.max_isometric_force_N * passive_force_length(m, lm / m.optimal_fiber_length_m) * cos_pennation(m, lm);
-}
+double passive_fiber_force_along_tendon(const Muscle& m, double lm) { return passive_along_tendon(m, lm, cos_pennation(m, lm)); }
 
 double rigid_tendon_active_force(const Muscle& m, double activation, double L, double V) {
   const RigidTendonFiber f = rigid_tendon_fiber(m, L, V);
-  return active_fiber_force_along_tendon(m, activation, f.fiber_length_m, f.fiber_velocity_m_s);
+  return active_along_tendon(m, activation, f.fiber_length_m, f.fiber_velocity_m_s, f.cos_pennation);
 }
 
 double rigid_tendon_passive_force(const Muscle& m, double L) {
-  return passive_fiber_force_along_tendon(m, rigid_tendon_fiber(m, L, 0.0).fiber_length_m);
+  const RigidTendonFiber f = rigid_tendon_fiber(m, L, 0.0);
+  return passive_along_tendon(m, f.fiber_length_m, f.cos_pennation);
+}
+
+RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double L, double V) {
+  const RigidTendonFiber f = rigid_tendon_fiber(m, L, V);
+  return {active_along_tendon(m, activation, f.fiber_length_m, f.fiber_velocity_m_s, f.cos_pennation),
+          passive_along_tendon(m, f.fiber_length_m, f.cos_pennation)};
 }
 
 CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm) {

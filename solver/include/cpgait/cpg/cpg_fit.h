@@ -103,6 +103,9 @@ CpgRun run_cpg(const CpgModel& model, double duration_s, double dt_s, const Eige
 // the network themselves (the reproduced gait closes its feedback loop that way).
 MatsuokaNetwork network_at_speed(const CpgModel& model);
 Eigen::VectorXd cpg_excitations(const CpgModel& model, const Eigen::VectorXd& y);
+// The same with the output map given sparse (model.output_map.sparseView(): fitted maps are ~1 %
+// non-zero), for callers that evaluate it every millisecond.
+Eigen::VectorXd cpg_excitations(const CpgModel& model, const Eigen::VectorXd& y, const Eigen::SparseMatrix<double>& output_map);
 
 // A smooth change from model a to model b (same structure) over [t0, t1]: parameters blend with a
 // cosine ramp, e.g. walk -> faster walk, walk -> stand (amplitude 0).

@@ -88,6 +88,7 @@ struct Muscle {
   double optimal_fiber_length_m = 0;
   double tendon_slack_length_m = 0;
   double pennation_angle_at_optimal_rad = 0;
+  double sin_pennation_at_optimal = 0;   // its sine, set with it (the muscle functions need it in every evaluation)
   double max_contraction_velocity = 10;  // optimal fiber lengths per second
   double activation_time_constant_s = 0.015;
   double deactivation_time_constant_s = 0.060;

@@ -28,6 +28,11 @@ RigidTendonFiber rigid_tendon_fiber(const Muscle& m, double path_length_m, doubl
 double rigid_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 // Passive fibre force along the tendon (N) for an inextensible tendon.
 double rigid_tendon_passive_force(const Muscle& m, double path_length_m);
+// Both at once (one fibre geometry), for the dynamics' every evaluation.
+struct RigidTendonForces {
+  double active_N, passive_N;
+};
+RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 
 // Active fibre force along the tendon (N) at a fibre length and velocity (either tendon model).
 double active_fiber_force_along_tendon(const Muscle& m, double activation, double fiber_length_m,
