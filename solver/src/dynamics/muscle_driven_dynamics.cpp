@@ -36,8 +36,8 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   const double* q = x.data();
   const double* u = x.data() + nq;
   auto& fd = ws.fd;
-  forward_kinematics(model, q, fd.kinematics);
-  motion_subspace(model, q, fd.kinematics, fd.S);
+  rnea_kinematics(model, q, u, fd.dynamics);  // pose, motion subspace and its rate in one pass
+  kinematics_values(fd.dynamics, fd.kinematics, fd.S);
   crba(model, fd.kinematics, fd.S, fd.M);
 
   // External loads: measured, then contact.
@@ -61,7 +61,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       ws.external[s.body] += spatial_force(f, point);
     }
   }
-  rnea(model, q, u, fd.zero.data(), ws.external, fd.dynamics, fd.bias.data());  // C + G - J^T f_ext
+  rnea_from_kinematics(model, u, fd.zero.data(), ws.external, fd.dynamics, fd.bias.data());  // C + G - J^T f_ext
 
   // Muscles (rigid tendon) and actuators.
   ws.tau.setZero();
@@ -90,6 +90,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
     for (int j = 0; j < na; ++j) ws.actuator_force[j] = control[j] * sys.actuators->spec(j).optimal_force;
     ws.tau.noalias() += ws.actuator_columns * control;
   }
+  if (sys.generalized_forces) ws.tau += *sys.generalized_forces;
   fd.llt.compute(fd.M);
   xdot.head(nq) = x.segment(nq, nq);
   xdot.segment(nq, nq) = fd.llt.solve(ws.tau - fd.bias);

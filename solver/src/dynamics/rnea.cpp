@@ -2,8 +2,7 @@
 
 namespace cpgait {
 
-void rnea(const Model& model, const double* q, const double* qd, const double* qdd,
-          const std::vector<Vector6d>& external, DynamicsWorkspace& ws, double* tau) {
+void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws) {
   const int nq = model.num_coordinates();
   for (int c = 0; c < nq; ++c) {
     ws.q_jet[c].a = q[c];
@@ -11,7 +10,29 @@ void rnea(const Model& model, const double* q, const double* qd, const double* q
   }
   forward_kinematics(model, ws.q_jet.data(), ws.kinematics);
   motion_subspace(model, ws.q_jet.data(), ws.kinematics, ws.S);
+}
 
+void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>& kinematics, MotionSubspace& S) {
+  for (std::size_t b = 0; b < kinematics.body_in_ground.size(); ++b) {
+    const auto& from = ws.kinematics.body_in_ground[b];
+    auto& to = kinematics.body_in_ground[b];
+    for (int r = 0; r < 3; ++r) {
+      to.translation_m[r] = from.translation_m[r].a;
+      for (int k = 0; k < 3; ++k) to.rotation(r, k) = from.rotation(r, k).a;
+    }
+  }
+  for (Eigen::Index c = 0; c < S.columns.cols(); ++c)
+    for (int r = 0; r < 6; ++r) S.columns(r, c) = ws.S.columns(r, c).a;
+}
+
+void rnea(const Model& model, const double* q, const double* qd, const double* qdd,
+          const std::vector<Vector6d>& external, DynamicsWorkspace& ws, double* tau) {
+  rnea_kinematics(model, q, qd, ws);
+  rnea_from_kinematics(model, qd, qdd, external, ws, tau);
+}
+
+void rnea_from_kinematics(const Model& model, const double* qd, const double* qdd, const std::vector<Vector6d>& external,
+                          DynamicsWorkspace& ws, double* tau) {
   ws.velocity[0].setZero();
   ws.acceleration[0].setZero();
   for (const Joint& j : model.joints) {

@@ -161,10 +161,11 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       tau_extra[c] -= o.passive_stiffness_Nm_per_rad * (y[c] - model.coordinates[c].default_value) + o.passive_damping_Nms_per_rad * y[nq + c];
     return tau_extra;
   };
-  const bool any_extra = o.pelvis_residuals || !passive.empty();
+  // They enter each evaluation's joint torques, so one solve with the mass matrix serves both.
+  sys.generalized_forces = &tau_extra;
   auto f = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+    extra_forces(y);
     muscle_driven_derivatives(sys, t, y, excitation, no_controls, ws, dy);
-    if (any_extra) dy.segment(nq, nq) += ws.fd.llt.solve(extra_forces(y));
   };
   // Each control interval starts with an evaluation at (t, x) for the residuals, reflexes and records;
   // the interval's first step reuses it (its excitations changed since, so only the activation rates
@@ -175,16 +176,15 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   Eigen::VectorXd xdot_start;
   auto prepare = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
     if (!(start_evaluation_fresh && &y == &x)) {
-      muscle_driven_derivatives(sys, t, y, excitation, no_controls, ws, f0);
-      if (any_extra) f0.segment(nq, nq) += ws.fd.llt.solve(extra_forces(y));
+      f(t, y, f0);
       return;
     }
     start_evaluation_fresh = false;
-    f0 = xdot_start;
+    f0 = xdot_start;  // with the passive joints, without the residuals decided since
     for (int m = 0; m < nm; ++m)
       f0[sys.activation_index(m)] = thelen_activation_rate(model.muscles[m], excitation[m], y[sys.activation_index(m)]);
     muscle_driven_jacobian(sys, y, excitation, ws, jac, f0);
-    if (any_extra) f0.segment(nq, nq) += ws.fd.llt.solve(extra_forces(y));
+    if (o.pelvis_residuals) f0.segment(nq, nq) += ws.fd.llt.solve(tau_root);
     // The passive joints' spring-damper in the W matrix too: on the light toes it is stiff (damping
     // over inertia ~2,500 /s), and left explicit it bounded the step size.
     if (!passive.empty() && jac.contact_damping.rows() == nq)
@@ -209,10 +209,9 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     reference_at(tau, q_ref, u_ref, a_ref);
     // Forces at the current state without residuals: contact, muscles, geometry for the reflexes.
     tau_root.setZero();
-    muscle_driven_derivatives(sys, t, x, excitation, no_controls, ws, xdot);
+    f(t, x, xdot);  // the passive joints' torques included
     xdot_start = xdot;
     start_evaluation_fresh = true;
-    if (!passive.empty()) xdot.segment(nq, nq) += ws.fd.llt.solve(extra_forces(x));
     Eigen::VectorXd contact_row(3 * contacts.spheres.size());
     for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
       contact_row.segment<3>(3 * s) = ws.contact_force_N[s];

@@ -74,20 +74,20 @@ double force_velocity_multiplier(const Muscle& m, double a, double fal, double v
   // Closed-form inverse of fiber_velocity (monotonic in Fm), region by region.
   const double afl = a * fal, flen = m.flen, af = m.af, k = 0.25 + 0.75 * a;
   if (afl <= 0) return 1.0;
-  double v0, s0, v1, s1;
-  const double upper = kFvExtrapolationThreshold * afl * flen;
-  thelen_velocity(m, a, afl, 0.0, v0, s0);
-  thelen_velocity(m, a, afl, upper, v1, s1);
+  // The region boundaries in closed form (thelen_velocity at Fm = 0 and at the extrapolation
+  // threshold): this runs for every muscle in every evaluation.
   double Fm;
-  if (v <= v0) {
-    Fm = (v - v0) / s0;  // beyond the concentric asymptote: linear extrapolation
-  } else if (v <= 0.0) {
-    Fm = afl * (k + v) / (k - v / af);  // concentric branch of Eq. 6
-  } else if (v < v1) {
-    const double c = (2.0 + 2.0 / af) / (flen - 1.0);
-    Fm = afl * (k + c * flen * v) / (k + c * v);  // eccentric branch
+  if (v <= 0.0) {
+    const double v0 = -k, s0 = k / afl * (1.0 + 1.0 / af);
+    if (v <= v0) Fm = (v - v0) / s0;                 // beyond the concentric asymptote: linear extrapolation
+    else Fm = afl * (k + v) / (k - v / af);           // concentric branch of Eq. 6
   } else {
-    Fm = upper + (v - v1) / s1;
+    const double c = (2.0 + 2.0 / af) / (flen - 1.0);
+    const double upper = kFvExtrapolationThreshold * afl * flen;
+    const double b1 = c * (afl * flen - upper);
+    const double v1 = k * (upper - afl) / b1, s1 = k / b1 + k * (upper - afl) / (b1 * b1) * c;
+    if (v < v1) Fm = afl * (k + c * flen * v) / (k + c * v);  // eccentric branch
+    else Fm = upper + (v - v1) / s1;
   }
   return Fm / afl;
 }

@@ -30,6 +30,9 @@ struct MuscleDrivenSystem {
   const AppliedLoads* loads = nullptr;           // measured loads at time t; nullptr: none
   const ContactSet* contacts = nullptr;          // contact spheres; nullptr: none
   bool compliant_tendons = true;
+  // Further generalized forces (N m or N per coordinate) added in every evaluation, e.g. residuals or
+  // passive joints the caller updates before each call; nullptr: none.
+  const Eigen::VectorXd* generalized_forces = nullptr;
   int num_coordinates() const { return model->num_coordinates(); }
   int num_muscles() const { return static_cast<int>(model->muscles.size()); }
   int num_actuators() const { return actuators ? actuators->size() : 0; }

@@ -37,4 +37,12 @@ struct DynamicsWorkspace {
 void rnea(const Model& model, const double* q, const double* qd, const double* qdd,
           const std::vector<Vector6d>& external, DynamicsWorkspace& ws, double* tau);
 
+// rnea in two parts, for a caller that needs the pose and motion subspace too: the kinematics on the
+// Jet (values and rates at once), their values copied out (what forward_kinematics and
+// motion_subspace on doubles would give), then the recursion on the kinematics already in ws.
+void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws);
+void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>& kinematics, MotionSubspace& S);
+void rnea_from_kinematics(const Model& model, const double* qd, const double* qdd, const std::vector<Vector6d>& external,
+                          DynamicsWorkspace& ws, double* tau);
+
 }  // namespace cpgait
