@@ -42,6 +42,9 @@ struct ReproducedGaitOptions {
   std::string passive_coordinate_prefix = "mtp_";
   double passive_stiffness_Nm_per_rad = 100, passive_damping_Nms_per_rad = 0.5;
   double control_interval_s = 0.001;
+  // ROS2's error tolerance (relative and absolute). On subject01 (rigid tendons) the motion at 1e-3
+  // stays within 0.23 deg RMS of a 1e-5 run (66k steps) in 4.7k steps; 2e-3 drifts 0.41 deg in 3.1k,
+  // 3e-3 0.50 deg in 2.7k - measured.
   double integrator_tolerance = 1e-3;
   // Rigid tendons by default: the CPG is fitted to static optimization's activations, which assume
   // them. On subject01 rigid tendons tracked within 3.4 deg at every speed knob setting (compliant:
