@@ -100,6 +100,31 @@ TEST(Rnea, MatchesLagrangesEquations) {
   }
 }
 
+// The pose and motion subspace copied out of RNEA's Jet pass are the ones computed on doubles.
+TEST(Rnea, KinematicsValuesAreTheDoublePass) {
+  const Model& m = walker();
+  const int n = m.num_coordinates();
+  std::mt19937 rng(11);
+  const Eigen::VectorXd q = random_vector(n, rng, 0.5), qd = random_vector(n, rng, 2.0);
+  DynamicsWorkspace dyn(m);
+  rnea_kinematics(m, q.data(), qd.data(), dyn);
+  KinematicsWorkspace<double> from_jet(m), direct(m);
+  MotionSubspace S_from_jet(m), S_direct(m);
+  kinematics_values(dyn, from_jet, S_from_jet);
+  forward_kinematics(m, q.data(), direct);
+  motion_subspace(m, q.data(), direct, S_direct);
+  for (std::size_t b = 0; b < m.bodies.size(); ++b) {
+    EXPECT_LT((from_jet.body_in_ground[b].rotation - direct.body_in_ground[b].rotation).cwiseAbs().maxCoeff(), 1e-14) << b;
+    EXPECT_LT((from_jet.body_in_ground[b].translation_m - direct.body_in_ground[b].translation_m).cwiseAbs().maxCoeff(), 1e-14) << b;
+  }
+  EXPECT_LT((S_from_jet.columns - S_direct.columns).cwiseAbs().maxCoeff(), 1e-14);
+  // And the two-part RNEA is RNEA.
+  const Eigen::VectorXd qdd = random_vector(n, rng, 5.0);
+  Eigen::VectorXd tau_parts(n);
+  rnea_from_kinematics(m, qd.data(), qdd.data(), {}, dyn, tau_parts.data());
+  EXPECT_LT((tau_parts - rnea_tau(m, q, qd, qdd)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
 TEST(Rnea, StaticPoseBalancesGravityExactly) {
   const Model& m = walker();
   const int n = m.num_coordinates();

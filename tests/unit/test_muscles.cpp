@@ -135,6 +135,14 @@ TEST(Thelen2003, RigidTendonForceAtOptimalLength) {
   // Activation is clamped to OpenSim's minimum of 0.01.
   EXPECT_NEAR(thelen2003::rigid_tendon_active_force(m, 0.0, L, 0.0), 0.01 * thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0), 1e-9);
   EXPECT_LT(thelen2003::rigid_tendon_active_force(m, 1.0, L, -0.2), thelen2003::rigid_tendon_active_force(m, 1.0, L, 0.0));
+  // Both forces at once are the two functions' (one fibre geometry instead of two), stretched too.
+  for (double stretch : {0.0, 0.02, 0.05})
+    for (double V : {-0.3, 0.0, 0.2}) {
+      const auto both = thelen2003::rigid_tendon_forces(m, 0.4, L + stretch, V);
+      EXPECT_DOUBLE_EQ(both.active_N, thelen2003::rigid_tendon_active_force(m, 0.4, L + stretch, V));
+      EXPECT_DOUBLE_EQ(both.passive_N, thelen2003::rigid_tendon_passive_force(m, L + stretch));
+    }
+  EXPECT_GT(thelen2003::rigid_tendon_forces(m, 0.4, L + 0.05, 0.0).passive_N, 0.0);
 }
 
 // Thelen's activation dynamics: a step of excitation is followed at the rates the time constants set

@@ -106,7 +106,7 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen:
 void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd& x, const Eigen::VectorXd& excitation,
                             const MuscleDrivenWorkspace& ws, MuscleDrivenJacobian& jac, const Eigen::VectorXd& xdot) {
   const Model& model = *sys.model;
-  const int nm = sys.num_muscles();
+  const int nm = sys.num_muscles(), nq = sys.num_coordinates();
   jac.M = ws.fd.M;
   jac.moment_arm = ws.geometry.moment_arm_m;
   jac.da_da.resize(nm);
@@ -140,13 +140,12 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   if (!sys.compliant_tendons && nm > 0) {
     // R^T diag(dF/dV) R muscle by muscle over the few coordinates each one crosses (a dense product
     // was 6 % of a reproduced gait's time).
-    const int nq_m = sys.num_coordinates();
-    jac.muscle_damping.setZero(nq_m, nq_m);
+    jac.muscle_damping.setZero(nq, nq);
     std::vector<int> crossed;
     for (int m = 0; m < nm; ++m) {
       if (jac.dF_dV[m] == 0) continue;
       crossed.clear();
-      for (int c = 0; c < nq_m; ++c)
+      for (int c = 0; c < nq; ++c)
         if (jac.moment_arm(m, c) != 0) crossed.push_back(c);
       for (int i : crossed)
         for (int j : crossed) jac.muscle_damping(i, j) += jac.dF_dV[m] * jac.moment_arm(m, i) * jac.moment_arm(m, j);
@@ -154,7 +153,6 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   }
   // Contact: each sphere's force (as the evaluation above found it) against its centre's velocity
   // and height, by differences, mapped through the centre's velocity Jacobian.
-  const int nq = sys.num_coordinates();
   jac.contact_damping.resize(0, 0);
   jac.contact_stiffness.resize(0, 0);
   if (sys.contacts && !sys.contacts->spheres.empty()) {
