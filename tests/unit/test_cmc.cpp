@@ -138,10 +138,10 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
     const Eigen::VectorXd u = Eigen::VectorXd::Constant(nm, 0.6);
     muscle_driven_prepare(sys, 0.0, x, u, none, ws, jac, f0);
     if (contact) {
-      ASSERT_EQ(jac.contact_damping.rows(), nq);
-      EXPECT_GT(jac.contact_damping.trace(), 0.0);
-      EXPECT_GT(jac.contact_stiffness.trace(), 0.0);
-      EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(jac.contact_damping).eigenvalues().minCoeff(), -1e-9);
+      ASSERT_EQ(jac.damping.rows(), nq);
+      EXPECT_GT(jac.damping.trace(), 0.0);
+      EXPECT_GT(jac.stiffness.trace(), 0.0);
+      EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(jac.damping).eigenvalues().minCoeff(), -1e-9);
     }
     const Eigen::VectorXd rhs = Eigen::VectorXd::Random(n);
     const double gh = 2e-3;
@@ -163,7 +163,7 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
     }
     Eigen::VectorXd Ju = jac.moment_arm.transpose() * g;
     if (!compliant) Ju -= jac.moment_arm.transpose() * (jac.dF_dV.asDiagonal() * (jac.moment_arm * k.segment(nq, nq)));
-    if (contact) Ju -= jac.contact_damping * k.segment(nq, nq) + jac.contact_stiffness * k.head(nq);
+    if (contact) Ju -= jac.damping * k.segment(nq, nq) + jac.stiffness * k.head(nq);
     Wk.segment(nq, nq) -= gh * jac.M.llt().solve(Ju);
     EXPECT_LT((Wk - rhs).cwiseAbs().maxCoeff(), 1e-9) << "variant " << variant;
     if (compliant) {

@@ -153,11 +153,9 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   }
   // Contact: each sphere's force (as the evaluation above found it) against its centre's velocity
   // and height, by differences, mapped through the centre's velocity Jacobian.
-  jac.contact_damping.resize(0, 0);
-  jac.contact_stiffness.resize(0, 0);
+  jac.damping.setZero(nq, nq);
+  jac.stiffness.setZero(nq, nq);
   if (sys.contacts && !sys.contacts->spheres.empty()) {
-    jac.contact_damping.setZero(nq, nq);
-    jac.contact_stiffness.setZero(nq, nq);
     const ContactSet& set = *sys.contacts;
     const double* u = x.data() + nq;
     Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, nq);
@@ -176,8 +174,8 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v).y() - f0.y()) / dp);
       J.setZero();
       for (int q : ws.sphere_coordinates[i]) J.col(q) = point_velocity_column(ws.fd.S, q, c);
-      jac.contact_damping.noalias() += J.transpose() * C_psd * J;
-      jac.contact_stiffness.noalias() += k_yy * J.row(1).transpose() * J.row(1);
+      jac.damping.noalias() += J.transpose() * C_psd * J;
+      jac.stiffness.noalias() += k_yy * J.row(1).transpose() * J.row(1);
     }
   }
 }
@@ -198,18 +196,17 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
       jac.g[m] = jac.dF_da[m] * k[ia];
     }
   }
-  // (M + gh (R^T D R + D_c) + gh^2 K_c) k_u = M rhs_u + gh R^T g - gh K_c rhs_q, with k_q = rhs_q + gh k_u
-  const bool contact = jac.contact_damping.rows() == nq;
+  // (M + gh (R^T diag(dF/dV) R + D) + gh^2 K) k_u = M rhs_u + gh R^T g - gh K rhs_q, with k_q = rhs_q + gh k_u
   if (gh != jac.factored_gamma_h) {
     jac.W = jac.M;
     if (!sys.compliant_tendons && nm > 0) jac.W += gh * jac.muscle_damping;
-    if (contact) jac.W += gh * jac.contact_damping + gh * gh * jac.contact_stiffness;
+    jac.W += gh * jac.damping + gh * gh * jac.stiffness;
     jac.llt.compute(jac.W);
     jac.factored_gamma_h = gh;
   }
   Eigen::VectorXd b = jac.M * rhs.segment(nq, nq);
   if (nm > 0) b.noalias() += gh * jac.moment_arm.transpose() * jac.g;
-  if (contact) b.noalias() -= gh * jac.contact_stiffness * rhs.head(nq);
+  b.noalias() -= gh * jac.stiffness * rhs.head(nq);
   k.segment(nq, nq) = jac.llt.solve(b);
   k.head(nq) = rhs.head(nq) + gh * k.segment(nq, nq);
 }

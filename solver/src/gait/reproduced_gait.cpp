@@ -187,11 +187,10 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     if (o.pelvis_residuals) f0.segment(nq, nq) += ws.fd.llt.solve(tau_root);
     // The passive joints' spring-damper in the W matrix too: on the light toes it is stiff (damping
     // over inertia ~2,500 /s), and left explicit it bounded the step size.
-    if (!passive.empty() && jac.contact_damping.rows() == nq)
-      for (int c : passive) {
-        jac.contact_damping(c, c) += o.passive_damping_Nms_per_rad;
-        jac.contact_stiffness(c, c) += o.passive_stiffness_Nm_per_rad;
-      }
+    for (int c : passive) {
+      jac.damping(c, c) += o.passive_damping_Nms_per_rad;
+      jac.stiffness(c, c) += o.passive_stiffness_Nm_per_rad;
+    }
   };
   auto w_solve = [&](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) { muscle_driven_w_solve(sys, jac, gh, rhs, k); };
   RosenbrockOptions ro;

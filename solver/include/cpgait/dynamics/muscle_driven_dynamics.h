@@ -67,17 +67,19 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const 
 // The Jacobian approximation integrate_ros2 uses: the stiff parts only. Per muscle, the activation
 // and fibre-length rates against their own states (diagonal), the muscle force against fibre length
 // (compliant) or against activation and path speed (rigid: the force-velocity curve damps the
-// joints, -R^T diag(dF/dV) R), and dq/dt = u. Joint stiffness from the ground (GRF moving with
-// the body, contact) is left explicit: the W-method stays second order without it.
+// joints, -R^T diag(dF/dV) R), dq/dt = u, and the damping and stiffness below (contact, and what a
+// caller adds). Measured GRF moving with the body is left explicit: the W-method stays second order
+// with any such approximation.
 struct MuscleDrivenJacobian {
   Eigen::MatrixXd M, moment_arm;  // at the step's start
   Eigen::VectorXd da_da, dl_dl, dl_da, dF_dl, dF_da, dF_dV;
-  // Contact spheres: generalized damping sum J^T C J (C: -dF/dv, symmetric part, negative
-  // eigenvalues dropped) and normal stiffness sum k J_y^T J_y, the stiff terms of foot-ground contact
-  // (friction's slope near zero slip and the Hunt-Crossley normal force); empty without contact.
-  Eigen::MatrixXd contact_damping, contact_stiffness;
+  // Generalized damping and stiffness (nq x nq, symmetric, >= 0) of the forces outside the muscles.
+  // Contact spheres give sum J^T C J (C: -dF/dv, symmetric part, negative eigenvalues dropped) and
+  // sum k J_y^T J_y, the stiff terms of foot-ground contact (friction's slope near zero slip and the
+  // Hunt-Crossley normal force); a caller adds its own generalized forces' (passive joints).
+  Eigen::MatrixXd damping, stiffness;
   Eigen::MatrixXd muscle_damping;  // rigid tendons: R^T diag(dF/dV) R, formed once per prepare
-  Eigen::MatrixXd W;              // M + gamma h (R^T diag(dF/dV) R + D_c) + (gamma h)^2 K_c, factored in llt
+  Eigen::MatrixXd W;              // M + gamma h (R^T diag(dF/dV) R + D) + (gamma h)^2 K, factored in llt
   Eigen::LLT<Eigen::MatrixXd> llt;
   double factored_gamma_h = -1;   // the gamma h that llt holds (a step's stages share it); < 0: none
   Eigen::VectorXd g;
