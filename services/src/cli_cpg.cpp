@@ -147,16 +147,17 @@ void add_cpg_commands(CLI::App& app) {
   // gait: the reproduced gait, driven by a fitted CPG.
   auto* gait = app.add_subcommand(
       "gait",
-      "Reproduced gait: the muscle-driven model on contact spheres (no GRF), excited by a fitted CPG with its\n"
-      "feedback and a joint-angle reflex, the pelvis held on the trial's kinematics by residual actuators\n"
-      "(reported; --no-residuals to walk without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
+      "Reproduced gait: the muscle-driven model on contact spheres (no GRF) fitted to the trial's feet, excited\n"
+      "by a fitted CPG with its feedback and a joint-angle reflex, the pelvis' rotations held on the trial's\n"
+      "kinematics by residual actuators and its translations by soft springs (reported; --no-residuals to walk\n"
+      "without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
       "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
       "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
   struct GaitArgs {
     std::string model, generic_model, cpg, kinematics, contacts, out;
     double start = -1;
     ReproducedGaitOptions options;
-    bool no_residuals = false;
+    bool no_residuals = false, no_foot_fit = false;
   };
   auto g = std::make_shared<GaitArgs>();
   gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
@@ -166,6 +167,8 @@ void add_cpg_commands(CLI::App& app) {
   gait->add_option("--cpg", g->cpg, "fitted CPG (cpgait cpg fit, or the pipeline's _cpg.json)")->required()->check(CLI::ExistingFile);
   gait->add_option("--kinematics", g->kinematics, "the trial's coordinates (IK .mot): initial state, reference")->required()->check(CLI::ExistingFile);
   gait->add_option("--start", g->start, "a heel strike of the CPG's foot in the trial, s (default: the first, Zeni's method)");
+  gait->add_option("--begin", g->options.begin_time_s,
+                   "where the simulation begins in the trial, s (default: at the heel strike, at the CPG's start phase)");
   gait->add_option("--duration", g->options.duration_s, "simulated time, s")->check(CLI::Range(0.01, 60.0))->capture_default_str();
   gait->add_option("--speed", g->options.speed, "CPG speed knob (the reference is time-scaled alike)")->check(CLI::Range(0.2, 5.0))->capture_default_str();
   gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
@@ -184,6 +187,9 @@ void add_cpg_commands(CLI::App& app) {
   gait->add_option("--passive-damping", g->options.passive_damping_Nms_per_rad, "damping of the passive joints, N m s/rad")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  gait->add_flag("--no-foot-fit", g->no_foot_fit,
+                 "default spheres as placed on the model; without it each sphere's radius is fitted so the trial's poses load the "
+                 "feet with body weight on average");
   gait->add_option("--contacts", g->contacts, "contact spheres JSON (cpgait.contact/1); default: two per foot")->check(CLI::ExistingFile);
   gait->add_option("-o,--output", g->out, "output prefix")->required();
   gait->callback([g] {
@@ -208,7 +214,16 @@ void add_cpg_commands(CLI::App& app) {
     }
     // The ground under the recorded feet, as CMC places it.
     if (g->contacts.empty()) {
-      place_ground_under_feet(model, contacts, k.time_s, k.q);
+      if (g->no_foot_fit) {
+        place_ground_under_feet(model, contacts, k.time_s, k.q);
+      } else {
+        const FootSphereFit fit = fit_foot_spheres_to_trial(model, contacts, k.time_s, k.q);
+        print_warnings(fit.warnings);
+        std::printf("feet fitted to the trial: depth %.1f mm (mean sphere force %.0f N); radius changes", fit.depth_m * 1000, fit.mean_force_N);
+        for (std::size_t s = 0; s < contacts.spheres.size(); ++s)
+          std::printf(" %s %+.1f mm", contacts.spheres[s].name.c_str(), fit.radius_change_m[s] * 1000);
+        std::printf("\n");
+      }
       std::printf("ground under the recorded feet: y = %.4f m, moving at (%.2f, %.2f, %.2f) m/s%s\n", contacts.ground_height_m,
                   contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.y(), contacts.ground_velocity_m_s.z(),
                   contacts.ground_velocity_m_s.norm() > 0 ? " (a treadmill)" : "");

@@ -466,8 +466,8 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
         start = s;
         break;
       }
-    const double tau0 = start + (fitted_cpg ? fitted_cpg->phase_at_start * cycle_s : 0);
-    const double available = ik_time.empty() ? 0 : ik_time.back() - tau0;
+    // The simulation begins at the heel strike's phase, or earlier when the trial would end first.
+    const double available = ik_time.empty() ? 0 : ik_time.back() - ik_time.front();
     const double duration = options.gait_duration_s > 0 ? options.gait_duration_s : std::min(2 * cycle_s, available);
     if (!fitted_cpg) {
       summary["not_run"] = "no CPG was fitted in this run (see the cpg stage)";
@@ -477,7 +477,7 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
       summary["not_run"] = "the trial has less than half a gait cycle after its first usable heel strike";
     } else {
       const Storage ik = make_storage("ik", coordinate_names(model), ik_time, ik_q, false);
-      place_ground_under_feet(model, feet, ik_time, ik_q);
+      const FootSphereFit fit = fit_foot_spheres_to_trial(model, feet, ik_time, ik_q);
       ReproducedGaitOptions go;
       go.start_time_s = start;
       go.duration_s = duration;
@@ -488,7 +488,9 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
       write(reproduced_gait_residual_table(g), in.name + "_gait_residuals.sto");
       write(reproduced_gait_contact_table(g), in.name + "_gait_contact_forces.sto");
       summary = reproduced_gait_metrics(model, g);
-      summary["reference_start_s"] = tau0;
+      json radius = json::object();
+      for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;
+      summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
       summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
       write_text_atomic((fs::path(out_dir) / (in.name + "_gait.json")).string(), summary.dump(2) + "\n");
       result.files.push_back(in.name + "_gait.json");

@@ -5,11 +5,14 @@
 #include <random>
 
 #include "cpgait/activation/computed_muscle_control.h"
+#include "cpgait/capture/ik_setup.h"
+#include "cpgait/capture/trc.h"
 #include "cpgait/dynamics/forward_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/muscles/scale_muscle_parameters.h"
 #include "cpgait/gait/reproduced_gait.h"
+#include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
 
@@ -95,14 +98,13 @@ static void BM_CmcSubject01(benchmark::State& state) {
 BENCHMARK(BM_CmcSubject01)->Unit(benchmark::kSecond)->Iterations(2);
 
 // The reproduced gait on subject01, one thread: a CPG fitted to OpenSim 4.1's static-optimization
-// activations drives the muscles on contact spheres for two gait cycles. Counter: simulated seconds
+// activations drives the muscles on contact spheres (fitted to the trial) for two gait cycles. Counter: simulated seconds
 // per wall-clock second (the target: 10). Argument 0: rigid tendons (the default), 1:
 // compliant.
 static void BM_ReproducedGaitSubject01(benchmark::State& state) {
   const std::string pl = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
   const std::string so = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim41-here/SO/subject01_walk1_StaticOptimization_activation.sto";
-  const std::string ik = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim41-here/IK/subject01_walk1_ik.mot";
-  if (!std::filesystem::exists(so) || !std::filesystem::exists(ik)) {
+  if (!std::filesystem::exists(so) || !std::filesystem::exists(pl + "subject01_walk1.trc")) {
     state.SkipWithError("reference data absent: ../shared/reference/opensim41-here");
     return;
   }
@@ -113,7 +115,10 @@ static void BM_ReproducedGaitSubject01(benchmark::State& state) {
   }
   // Muscle lengths scaled from the generic model, as the reproduced-gait test does.
   const Model m = scale_muscle_parameters(read_osim(pl + "OutputReference/subject01_simbody.osim").model, read_osim(generic).model);
-  const Storage act = read_storage(so), grf = read_storage(pl + "subject01_walk1_grf.mot"), kin = read_storage(ik);
+  const Storage act = read_storage(so), grf = read_storage(pl + "subject01_walk1_grf.mot");
+  // The reference: IK of the whole trial, as the reproduced-gait test does (two cycles fit in it).
+  const IkResult ik = inverse_kinematics(m, read_trc(pl + "subject01_walk1.trc"), read_ik_setup(pl + "subject01_Setup_IK.xml").tasks);
+  const Storage kin = ik_coordinates_table(m, ik);
   const std::vector<double> strikes = contact_onsets(grf.time(), grf.data.col(grf.column("ground_force_vy")));
   const Eigen::VectorXd t = act.time();
   const std::vector<double> time(t.data(), t.data() + t.size());
@@ -125,11 +130,10 @@ static void BM_ReproducedGaitSubject01(benchmark::State& state) {
   }
   const double cycle_s = mean_cycle_duration(time, strikes);
   const CpgFitResult fit = fit_cpg(cycle_average(time, patterns, strikes, 100), cycle_s, names);
-  const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
   ContactSet feet = default_foot_contacts(m);
-  place_ground_under_feet(m, feet, k.time_s, k.q);
+  fit_foot_spheres_to_trial(m, feet, ik.time_s, ik.q);
   ReproducedGaitOptions o;
-  o.start_time_s = heel_strikes_zeni(m, k.time_s, k.q, "calcn_r").front();
+  o.start_time_s = heel_strikes_zeni(m, ik.time_s, ik.q, "calcn_r").front();
   o.duration_s = 2 * cycle_s;
   o.compliant_tendons = state.range(0) == 1;
   double simulated = 0;

@@ -8,6 +8,7 @@
 #include "cpgait/dynamics/forward_dynamics.h"
 #include <Eigen/Eigenvalues>
 #include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rnea.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/signal/lowpass.h"
@@ -395,4 +396,104 @@ TEST(Contact, JsonSideFileAndDefaultFeet) {
   EXPECT_EQ(field_of(R"({"spheres": [{"body": "foot_r", "location_m": [0, 0]}]})"), "spheres[0].location_m");
   EXPECT_EQ(field_of(R"({"spheres": [{"body": "foot_r", "location_m": [0, 0, 0], "radius_m": -1}]})"), "spheres[0].radius_m");
   EXPECT_EQ(field_of(R"({"spheres": []})"), "spheres");
+}
+
+// Spheres fitted to a trial: each touches the ground at its lowest, all sink by one depth, and the
+// trial's poses then load them with body weight on average - checked here with the contact force
+// itself, pose by pose. A sphere that never comes near the ground is left as it was.
+TEST(Contact, FootSpheresFittedToATrialCarryBodyWeightOnAverage) {
+  const Model& m = walker();
+  // Standing and rocking: the body bobs 1 cm while the feet roll heel to toe in turn.
+  const int n = 200;
+  Eigen::MatrixXd q(n, m.num_coordinates());
+  std::vector<double> t;
+  for (int i = 0; i < n; ++i) {
+    const double ph = 2 * M_PI * i / 100.0;
+    Eigen::VectorXd qi = m.default_coordinates();
+    qi[m.coordinate_index("pelvis_ty")] += 0.01 * std::sin(ph);
+    qi[m.coordinate_index("ankle_angle_r")] += 0.15 * std::sin(ph);
+    qi[m.coordinate_index("ankle_angle_l")] -= 0.15 * std::sin(ph);
+    q.row(i) = qi.transpose();
+    t.push_back(i * 0.01);
+  }
+  ContactSet set = default_foot_contacts(m);
+  ContactSphere head = set.spheres.front();
+  head.name = "head";
+  head.body = m.body_index("torso");
+  ASSERT_GT(head.body, 0);
+  set.spheres.push_back(head);
+  const ContactSet before = set;
+  const FootSphereFit fit = fit_foot_spheres_to_trial(m, set, t, q);
+  ASSERT_EQ(fit.radius_change_m.size(), set.spheres.size());
+  EXPECT_GT(fit.depth_m, 0.001);
+  EXPECT_LT(fit.depth_m, 0.02);
+  EXPECT_EQ(fit.radius_change_m.back(), 0.0);
+  EXPECT_EQ(set.spheres.back().radius_m, before.spheres.back().radius_m);
+  ASSERT_EQ(fit.warnings.size(), 1u);
+  EXPECT_NE(fit.warnings[0].find("head"), std::string::npos);
+
+  KinematicsWorkspace<double> kws(m);
+  std::vector<double> lowest(set.spheres.size(), 1e9);
+  double total_N = 0;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::VectorXd qi = q.row(i).transpose();
+    forward_kinematics(m, qi.data(), kws);
+    for (std::size_t s = 0; s < set.spheres.size(); ++s) {
+      const auto& B = kws.body_in_ground[static_cast<std::size_t>(set.spheres[s].body)];
+      const Eigen::Vector3d c = B.rotation * set.spheres[s].location_m + B.translation_m;
+      lowest[s] = std::min(lowest[s], c.y() - set.spheres[s].radius_m - set.ground_height_m);
+      total_N += sphere_contact_force(set.spheres[s], set, c, Eigen::Vector3d::Zero()).y();
+    }
+  }
+  const double weight_N = m.total_mass_kg() * m.gravity_m_s2.norm();
+  EXPECT_NEAR(total_N / n, weight_N, 0.01 * weight_N);
+  for (std::size_t s = 0; s + 1 < set.spheres.size(); ++s) EXPECT_NEAR(lowest[s], -fit.depth_m, 1e-9) << set.spheres[s].name;
+}
+
+// Friction acts on the velocity of the sphere's point in contact, not of its centre: a foot rolling
+// over its heel sphere without slipping feels no friction, however fast the centre moves, while the
+// same foot sliding does.
+TEST(Contact, ARollingFootDoesNotSlip) {
+  const Model& m = walker();
+  ContactSet feet = default_foot_contacts(m);
+  MuscleDrivenSystem sys;
+  sys.model = &m;
+  sys.contacts = &feet;
+  MuscleDrivenWorkspace ws(sys);
+  const int nq = m.num_coordinates();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), xdot(sys.state_size()), none(0);
+  x.head(nq) = m.default_coordinates();
+  const Eigen::VectorXd e = Eigen::VectorXd::Zero(sys.num_muscles());
+  // The ground 5 mm into the right heel sphere.
+  const int heel = 0;
+  ASSERT_EQ(feet.spheres[heel].name, "heel_r");
+  muscle_driven_derivatives(sys, 0.0, x, e, none, ws, xdot);
+  feet.ground_height_m = ws.contact_point_m[heel].y() + 0.005;
+  // Rolling: the ankle turns at 3 rad/s and the pelvis moves so that the contact point stands still.
+  muscle_driven_derivatives(sys, 0.0, x, e, none, ws, xdot);
+  const Eigen::Vector3d p = ws.contact_point_m[heel];
+  const std::vector<int> chain = ancestor_coordinates(m, feet.spheres[heel].body);
+  const int ankle = m.coordinate_index("ankle_angle_r");
+  std::vector<int> pelvis;
+  for (const char* c : {"pelvis_tilt", "pelvis_list", "pelvis_rotation", "pelvis_tx", "pelvis_ty", "pelvis_tz"}) pelvis.push_back(m.coordinate_index(c));
+  Eigen::Matrix<double, 3, 6> Jp;
+  for (int j = 0; j < 6; ++j) Jp.col(j) = point_velocity_column(ws.fd.S, pelvis[static_cast<std::size_t>(j)], p);
+  const Eigen::Vector3d ankle_velocity = point_velocity_column(ws.fd.S, ankle, p) * 3.0;
+  const Eigen::VectorXd u_pelvis = Jp.completeOrthogonalDecomposition().solve(-ankle_velocity);
+  x.segment(nq, nq).setZero();
+  x[nq + ankle] = 3.0;
+  for (int j = 0; j < 6; ++j) x[nq + pelvis[static_cast<std::size_t>(j)]] = u_pelvis[j];
+  ASSERT_LT(point_velocity_in_ground(ws.fd.S, chain, p, x.data() + nq).norm(), 1e-9);
+  const Eigen::Vector3d centre = p + feet.spheres[heel].radius_m * Eigen::Vector3d::UnitY();
+  EXPECT_GT(point_velocity_in_ground(ws.fd.S, chain, centre, x.data() + nq).norm(), 0.08);  // the centre moves
+  muscle_driven_derivatives(sys, 0.0, x, e, none, ws, xdot);
+  const Eigen::Vector3d rolling = ws.contact_force_N[heel];
+  ASSERT_GT(rolling.y(), 100.0);
+  EXPECT_LT(std::hypot(rolling.x(), rolling.z()), 1e-3 * rolling.y());
+  // Sliding: the whole body moving forwards at 0.1 m/s.
+  x.segment(nq, nq).setZero();
+  x[nq + m.coordinate_index("pelvis_tx")] = 0.1;
+  muscle_driven_derivatives(sys, 0.0, x, e, none, ws, xdot);
+  const Eigen::Vector3d sliding = ws.contact_force_N[heel];
+  EXPECT_LT(sliding.x(), -0.5 * sliding.y());
 }

@@ -199,7 +199,7 @@ async function trialView(id) {
   const cpgSummary = (trial.stages.find((x) => x.name === 'cpg') || {}).summary || {};
   const cpgFitted = done('cpg') && cpgSummary.mean_r_squared_active !== undefined;
   const gaitSummary = (trial.stages.find((x) => x.name === 'gait') || {}).summary || {};
-  const gaitRan = done('gait') && gaitSummary.reference_start_s !== undefined;
+  const gaitRan = done('gait') && gaitSummary.reference_begin_s !== undefined;
   const [kin, ik, id_, so, cpg, gait] = await Promise.all([
     api(`/trials/${id}/kinematics`), api(`/trials/${id}/results/ik`),
     done('id') ? api(`/trials/${id}/results/id`) : null, done('so') ? api(`/trials/${id}/results/so`) : null,
@@ -331,7 +331,7 @@ async function trialView(id) {
     // The simulated motion (solid) against the trial's (dashed) from the simulation's start, a heel
     // strike; the playhead is the trial's time since then.
     const sim = gait.tables[0], residuals = gait.tables[1];
-    const simT = sim.columns[0], t0 = gaitSummary.reference_start_s;
+    const simT = sim.columns[0], t0 = gaitSummary.reference_begin_s;
     const names = sim.labels.slice(1).filter((c) => !/^pelvis_t[xyz]$/.test(c));
     const sel = h('select', { multiple: true, id: 'gait-select' }, names.map((c) => h('option', { value: c, selected: /^(hip_flexion_r|knee_angle_r|ankle_angle_r)$/.test(c) }, c)));
     const box = h('div', { id: 'plot-gait' }), rbox = h('div', { id: 'plot-gait-residuals' });

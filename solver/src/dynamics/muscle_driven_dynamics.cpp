@@ -52,10 +52,13 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       const ContactSphere& s = set.spheres[i];
       const auto& B = fd.kinematics.body_in_ground[s.body];
       const Eigen::Vector3d centre = B.rotation * s.location_m + B.translation_m;
-      const Eigen::Vector3d v = point_velocity_in_ground(fd.S, ws.sphere_coordinates[i], centre, u);
-      const Eigen::Vector3d f = sphere_contact_force(s, set, centre, v);
-      // Applied at the contact point below the centre (the sphere's lowest point, not below ground).
+      // Applied at the contact point below the centre (the sphere's lowest point, not below ground),
+      // and slipping at that point's velocity: a rolling foot does not slip. The centre's velocity
+      // differs from it by omega x r - on subject01's heel and toe rockers 0.1-0.2 m/s, enough for
+      // full friction against a foot the recorded motion rolls without slipping.
       const Eigen::Vector3d point = centre - s.radius_m * Eigen::Vector3d::UnitY();
+      const Eigen::Vector3d v = point_velocity_in_ground(fd.S, ws.sphere_coordinates[i], point, u);
+      const Eigen::Vector3d f = sphere_contact_force(s, set, centre, v);
       ws.contact_force_N[i] = f;
       ws.contact_point_m[i] = point;
       ws.external[s.body] += spatial_force(f, point);
@@ -151,8 +154,8 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
         for (int j : crossed) jac.muscle_damping(i, j) += jac.dF_dV[m] * jac.moment_arm(m, i) * jac.moment_arm(m, j);
     }
   }
-  // Contact: each sphere's force (as the evaluation above found it) against its centre's velocity
-  // and height, by differences, mapped through the centre's velocity Jacobian.
+  // Contact: each sphere's force (as the evaluation above found it) against its contact point's
+  // velocity and its height, by differences, mapped through the contact point's velocity Jacobian.
   jac.damping.setZero(nq, nq);
   jac.stiffness.setZero(nq, nq);
   if (sys.contacts && !sys.contacts->spheres.empty()) {
@@ -163,8 +166,9 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const ContactSphere& s = set.spheres[i];
       const Eigen::Vector3d& f0 = ws.contact_force_N[i];
       if (f0.y() < 1e-6) continue;  // not touching: nothing stiff
-      const Eigen::Vector3d c = ws.contact_point_m[i] + s.radius_m * Eigen::Vector3d::UnitY();
-      const Eigen::Vector3d v = point_velocity_in_ground(ws.fd.S, ws.sphere_coordinates[i], c, u);
+      const Eigen::Vector3d& p = ws.contact_point_m[i];
+      const Eigen::Vector3d c = p + s.radius_m * Eigen::Vector3d::UnitY();
+      const Eigen::Vector3d v = point_velocity_in_ground(ws.fd.S, ws.sphere_coordinates[i], p, u);
       Eigen::Matrix3d C;
       const double dv = 1e-6;
       for (int j = 0; j < 3; ++j) C.col(j) = -(sphere_contact_force(s, set, c, v + dv * Eigen::Vector3d::Unit(j)) - f0) / dv;
@@ -173,7 +177,7 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const double dp = 1e-7;
       const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v).y() - f0.y()) / dp);
       J.setZero();
-      for (int q : ws.sphere_coordinates[i]) J.col(q) = point_velocity_column(ws.fd.S, q, c);
+      for (int q : ws.sphere_coordinates[i]) J.col(q) = point_velocity_column(ws.fd.S, q, p);
       jac.damping.noalias() += J.transpose() * C_psd * J;
       jac.stiffness.noalias() += k_yy * J.row(1).transpose() * J.row(1);
     }

@@ -88,8 +88,11 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     a *= o.speed * o.speed;
   };
 
-  const double tau0 = o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s;
   const double ref_end = ref.time_s.back();
+  double tau0 = o.begin_time_s >= 0 ? o.begin_time_s : o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s;
+  if (o.begin_time_s < 0 && tau0 + o.duration_s * o.speed > ref_end)  // begin earlier rather than run past the trial
+    tau0 = std::max(ref.time_s.front(), ref_end - o.duration_s * o.speed);
+  r.reference_begin_s = tau0;
   if (tau0 < ref.time_s.front() || tau0 > ref_end)
     throw InputError(reference.name, 0, "start_time", "the start (heel strike + the CPG's start phase) lies outside the reference kinematics");
   const double tracked_until = std::min(o.duration_s, (ref_end - tau0) / o.speed);  // reference time available
@@ -120,6 +123,15 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   MatsuokaState neurons = cpg.start;
   MatsuokaScratch scratch;
   matsuoka_prepare(network, scratch);
+  // Begun elsewhere than at the CPG's start phase: the network runs (without feedback) on its limit
+  // cycle to the phase the reference has at the beginning.
+  if (tau0 != o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s) {
+    double phase = (tau0 - o.start_time_s) / cpg_in.cycle_s - cpg.phase_at_start;
+    phase -= std::floor(phase);
+    const int n = static_cast<int>(std::lround(phase * cpg_in.cycle_s / cpg.speed / o.control_interval_s));
+    const Eigen::VectorXd none = Eigen::VectorXd::Zero(network.size());
+    for (int i = 0; i < n; ++i) matsuoka_step(network, neurons, o.control_interval_s, none, scratch);
+  }
   const Eigen::SparseMatrix<double> output_map = cpg.output_map.sparseView();
   Eigen::VectorXd excitation(nm), no_controls(0);
   auto cpg_excitation_now = [&]() {
@@ -215,20 +227,34 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
       contact_row.segment<3>(3 * s) = ws.contact_force_N[s];
     }
-    // Pelvis residuals: the root's accelerations made the reference's plus PD.
+    // Pelvis residuals. Translations: springs and dampers towards the reference, scaled by body mass,
+    // without feedforward, so weight and propulsion reach the body through the legs and the ground
+    // and the springs take only what the ground does not. Rotations: computed torque (the reference's
+    // accelerations plus PD), given the translational forces, so the trunk stays upright.
     if (o.pelvis_residuals && !root.empty()) {
       // Only M^-1's root columns are needed: qdd = qdd0 + M^-1 E tau_root.
       const int nr = static_cast<int>(root.size());
       const Eigen::MatrixXd Minv_root = ws.fd.llt.solve(root_columns);
-      Eigen::MatrixXd B(nr, nr);
-      Eigen::VectorXd want(nr);
+      const double mass = model.total_mass_kg();
+      std::vector<int> rotations;
       for (int i = 0; i < nr; ++i) {
         const int c = root[i];
-        want[i] = a_ref[c] + o.pelvis_kv * (u_ref[c] - x[nq + c]) + o.pelvis_kp * (q_ref[c] - x[c]) - xdot[nq + c];
-        B.row(i) = Minv_root.row(c);
+        if (model.coordinates[c].is_angle()) rotations.push_back(i);
+        else tau_root[c] = mass * (o.pelvis_translation_kp * (q_ref[c] - x[c]) + o.pelvis_translation_kv * (u_ref[c] - x[nq + c]));
       }
-      const Eigen::VectorXd tr = B.partialPivLu().solve(want);
-      for (int i = 0; i < nr; ++i) tau_root[root[i]] = tr[i];
+      const int nrot = static_cast<int>(rotations.size());
+      if (nrot > 0) {
+        const Eigen::VectorXd qdd_translations = Minv_root * Eigen::VectorXd(tau_root(root));  // rotations still 0
+        Eigen::MatrixXd B(nrot, nrot);
+        Eigen::VectorXd want(nrot);
+        for (int a = 0; a < nrot; ++a) {
+          const int c = root[rotations[a]];
+          want[a] = a_ref[c] + o.pelvis_kv * (u_ref[c] - x[nq + c]) + o.pelvis_kp * (q_ref[c] - x[c]) - xdot[nq + c] - qdd_translations[c];
+          for (int b2 = 0; b2 < nrot; ++b2) B(a, b2) = Minv_root(c, rotations[b2]);
+        }
+        const Eigen::VectorXd tr = B.partialPivLu().solve(want);
+        for (int a = 0; a < nrot; ++a) tau_root[root[rotations[a]]] = tr[a];
+      }
     }
     // Record.
     r.time_s.push_back(t);
@@ -382,6 +408,7 @@ Storage reproduced_gait_contact_table(const ReproducedGaitResult& r) {
 nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitResult& r) {
   nlohmann::json j;
   j["simulated_s"] = r.time_s.empty() ? 0.0 : r.time_s.back();
+  j["reference_begin_s"] = r.reference_begin_s;
   j["real_time_factor"] = r.real_time_factor();
   j["heel_strikes_s"] = {{"right", r.heel_strikes_r_s}, {"left", r.heel_strikes_l_s}};
   j["stride_time_s"] = r.stride_time_s;

@@ -37,9 +37,10 @@ struct ContactSet {
 };
 
 // The force (N, ground frame) the ground applies at the sphere's lowest point, from the sphere
-// centre's position and velocity in ground.
+// centre's position and the velocity in ground of the sphere's material point there (the contact
+// point: the centre's velocity plus omega x r; its vertical part is the centre's).
 Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& set, const Eigen::Vector3d& centre_G_m,
-                                     const Eigen::Vector3d& velocity_G_m_s);
+                                     const Eigen::Vector3d& contact_point_velocity_G_m_s);
 
 // JSON "cpgait.contact/1": {"ground_height_m": 0, "ground_velocity_m_s": [3] (a treadmill belt), "defaults": {sphere fields}, "spheres": [{"name",
 // "body", "location_m": [3], "radius_m", "stiffness", "dissipation", "static_friction",
@@ -57,6 +58,25 @@ ContactSet read_contact_set(const std::string& path, const Model& model);
 //   overground, under 0.1 m/s, it is zero.
 void place_ground_under_feet(const Model& model, ContactSet& set, const std::vector<double>& time_s,
                              const Eigen::MatrixXd& q_samples);
+
+// Fits foot spheres to a recorded trial so that the recorded poses load them as the ground loaded the
+// subject: a foot model's soles and a marker-based IK never agree to the millimetre (on subject01
+// the right heel sphere stayed 6 mm above the ground all through its stance while the left toes sank
+// 5 mm - measured), and stiff spheres turn millimetres into hundreds of newtons. After
+// place_ground_under_feet (height, belt):
+// - each sphere's radius changes by its lowest bottom over the trial, so every sphere touches the
+//   ground at its lowest (a sphere that never comes within max_lift_m of the lowest is left alone);
+// - all grow by one depth, chosen so the trial's mean static sphere force (k d^1.5) equals body
+//   weight, as the mean vertical GRF over whole strides does.
+// The ground is left where place_ground_under_feet put it.
+struct FootSphereFit {
+  std::vector<double> radius_change_m;  // per sphere, in the set's order
+  double depth_m = 0;                   // the common depth
+  double mean_force_N = 0;              // the trial's mean sphere force at that depth
+  std::vector<std::string> warnings;
+};
+FootSphereFit fit_foot_spheres_to_trial(const Model& model, ContactSet& set, const std::vector<double>& time_s,
+                                        const Eigen::MatrixXd& q_samples, double max_lift_m = 0.03);
 
 // Two spheres per foot (heel and toes) on calcn_/toes_ bodies (gait2392 and its kin) or on foot_
 // bodies (the fixture walker): the default when a simulation has no GRF and no contact file. The toe

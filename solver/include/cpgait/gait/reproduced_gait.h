@@ -7,9 +7,13 @@
 // Every control interval (1 ms): the CPG advances one step with its feedback signals; each muscle's
 // excitation is the CPG's plus  kp * sum_c r_mc (q_ref,c - q_c) + kv * sum_c r_mc (u_ref,c - u_c)
 // over the non-pelvis coordinates (r: moment arms, m), so a muscle that would correct a joint's
-// error is excited more; the pelvis residuals, when on, are the generalized forces on the pelvis'
-// six coordinates that give them the reference's accelerations plus PD terms (computed torque on the
-// root alone). The reference is the trial's kinematics, time-scaled by the speed knob.
+// error is excited more; the pelvis residuals, when on, hold the pelvis' rotations on the reference
+// by computed torque and its translations by soft springs (see the options), so the ground, not the
+// residuals, carries the body. The reference is the trial's kinematics, time-scaled by the speed
+// knob. The feet should be fitted to the trial (fit_foot_spheres_to_trial): on subject01 the default
+// spheres under the recorded poses carried a fifth of the body's weight, and with the pelvis on soft
+// springs the model sank onto its toes and fell at 2.45 s (28 % BW, hip_flexion_l 21 deg off) -
+// measured.
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -24,39 +28,53 @@ namespace cpgait {
 
 struct ReproducedGaitOptions {
   double start_time_s = 0;        // in the reference: a heel strike of the foot the CPG was fitted to
+  // Where the simulation begins in the reference (s). < 0: at start_time_s plus the CPG's start
+  // phase, or earlier where the reference would end before duration_s (subject01's 2.5 s trial holds
+  // two cycles, but not two after its first right heel strike). Begun off the CPG's start phase, the
+  // CPG first runs on its limit cycle to the phase the reference has there.
+  double begin_time_s = -1;
   double duration_s = 2.5;        // simulated time (s): at least two cycles for a gait at 1.2 s/cycle
   double speed = 1.0;             // CPG speed knob (cycle time / speed); the reference and a treadmill belt alike
   double amplitude = 1.0;         // CPG amplitude knob
   bool pelvis_residuals = true;
-  double pelvis_kp = 100, pelvis_kv = 20;      // 1/s^2, 1/s on the pelvis' errors
+  // The pelvis residuals. Rotations: computed torque with these PD gains (1/s^2, 1/s). Translations:
+  // springs and dampers (1/s^2, 1/s, times body mass) without feedforward, so the ground carries the
+  // body: computed torque on them too held the pelvis on the trial while the residuals carried 54-79
+  // % of body weight. On subject01 (feet fitted to the trial) 100 / 20 left 11.0 % BW, 30 / 11 7.9 %,
+  // 10 / 6.3 5.5 % and 3 / 3.5 3.3 %, the pelvis drifting 1, 2, 3 and 4 cm RMS over the treadmill and
+  // the joints unchanged (2.2-2.5 deg worst; rigid tendons, reflexes 100 / 10) - measured.
+  double pelvis_kp = 100, pelvis_kv = 20;
+  double pelvis_translation_kp = 10, pelvis_translation_kv = 6.3;
   // Excitation per (m x rad) and per (m x rad/s). On subject01 (muscles scaled with the model, toes
-  // passive, rigid tendons) 100 / 10 tracked every coordinate within 3.4 deg; 60 / 6 within 4.7 deg;
-  // 40 / 4 let subtalar_l drift 18 deg; 150 / 15 to 300 / 30 tracked closer (2.6-2.1 deg) but pushed
-  // the pelvis residual from 79 to 84-91 % BW, and at 300 / 30 the stride grew to 1.51 s - measured.
+  // passive, rigid tendons, feet fitted) 100 / 10 tracked every coordinate within 2.4 deg at 5.4 % BW;
+  // 200 / 20 within 1.9 deg at 5.1 %; 60 / 6 within 3.4 deg at 6.2 %; at 40 / 4 the legs gave way
+  // (hip_flexion_l 27 deg off, fell at 1.55 s) - measured.
   double reflex_kp = 100, reflex_kv = 10;
   // Passive joints: a spring-damper towards the coordinate's default value on the coordinates whose
   // names start with this prefix, as a joint's ligaments and soft tissue would. gait2392's toes have
   // none: crossed only by the long toe flexors and extensors, which static optimization leaves idle
   // (the measured GRF acts on the calcaneus), they bent to 100-150 deg under the toe spheres -
   // measured. Empty prefix: none.
+  // On subject01 (feet fitted to the trial) 100 N m/rad let the right toes bend 5.2 deg RMS off the
+  // trial, 150 3.7 deg, 300 less than the worst joint's 2.4 deg - measured.
   std::string passive_coordinate_prefix = "mtp_";
-  double passive_stiffness_Nm_per_rad = 100, passive_damping_Nms_per_rad = 0.5;
+  double passive_stiffness_Nm_per_rad = 300, passive_damping_Nms_per_rad = 0.5;
   double control_interval_s = 0.001;
   // ROS2's error tolerance (relative and absolute). On subject01 (rigid tendons) the motion at 1e-3
-  // stays within 0.23 deg RMS of a 1e-5 run (66k steps) in 4.7k steps; 2e-3 drifts 0.41 deg in 3.1k,
-  // 3e-3 0.50 deg in 2.7k - measured.
+  // stays within 0.11 deg RMS of a 1e-5 run (88k steps) in 4.3k steps; 2e-3 within 0.13 deg in 2.8k
+  // - measured.
   double integrator_tolerance = 1e-3;
   // Rigid tendons by default: the CPG is fitted to static optimization's activations, which assume
-  // them. On subject01 rigid tendons tracked within 3.4 deg at every speed knob setting (compliant:
-  // 4.4 deg, and 20-25 deg at speed 1.2), strode 1.237 s against the trial's 1.234 s (1.20 s) and
-  // took 4.7k integrator steps instead of 11.8k - measured. Compliant (OpenSim's Thelen2003Muscle)
-  // suits a CPG fitted to CMC's excitations.
+  // them. On subject01 rigid tendons tracked within 2.4 deg at 5.4 % BW in 4.3k integrator steps,
+  // compliant ones within 4.4 deg at 7.0 % BW in 13.2k - measured. Compliant (OpenSim's
+  // Thelen2003Muscle) suits a CPG fitted to CMC's excitations.
   bool compliant_tendons = false;
   double fall_height_fraction = 0.75;          // pelvis height below this share of its start: fallen
 };
 
 struct ReproducedGaitResult {
   std::vector<std::string> coordinate_names;
+  double reference_begin_s = 0;                // the reference's time at simulated time 0
   std::vector<double> time_s;                  // simulated time from 0
   Eigen::MatrixXd q, q_reference;              // samples x coordinates (rad, m)
   Eigen::MatrixXd residuals;                   // samples x 6: pelvis generalized forces (N m, N)
