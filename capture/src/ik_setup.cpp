@@ -135,4 +135,16 @@ IkTaskSet parse_ik_tasks_json(const std::string& content, const std::string& nam
   return tasks;
 }
 
+std::string ik_tasks_json(const IkTaskSet& tasks) {
+  nlohmann::json j = {{"markers", nlohmann::json::object()}, {"coordinates", nlohmann::json::object()}};
+  for (const auto& t : tasks.markers) j["markers"][t.name] = {{"weight", t.weight}, {"apply", t.apply}};
+  for (const auto& t : tasks.coordinates) {
+    const char* type = t.value_type == IkCoordinateTask::ValueType::kManualValue ? "manual_value"
+                       : t.value_type == IkCoordinateTask::ValueType::kFromFile  ? "from_file"
+                                                                                  : "default_value";
+    j["coordinates"][t.name] = {{"weight", t.weight}, {"apply", t.apply}, {"value_type", type}, {"value", t.value}};
+  }
+  return j.dump();
+}
+
 }  // namespace cpgait

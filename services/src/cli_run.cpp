@@ -5,6 +5,7 @@
 #include "commands.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
+#include "cpgait/capture/ik_setup.h"
 #include "pipeline.h"
 
 namespace cpgait::services {
@@ -30,22 +31,30 @@ void add_run_command(CLI::App& app) {
       "JSON (see services/src/pipeline.h for the schema). Writes all result files and job.json (the exact\n"
       "options and input paths) into DIR; `cpgait run --options DIR/job.json -o DIR2` reproduces them.");
   struct Args {
-    std::string model, markers, grf, loads, options, name, out, calibration, tags;
+    std::string model, generic_model, ik_tasks, markers, grf, loads, options, name, out, calibration, tags;
     std::vector<std::string> videos;
   };
   auto a = std::make_shared<Args>();
   run->add_option("--model", a->model, "OpenSim model (.osim)")->check(CLI::ExistingFile);
+  run->add_option("--scale-muscles-from", a->generic_model,
+                  "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
   run->add_option("--markers", a->markers, "marker trajectories (.trc)")->check(CLI::ExistingFile);
   run->add_option("--videos", a->videos, "AprilTag footage instead of --markers: one video per camera (NAME=PATH or named after it)");
   run->add_option("--calibration", a->calibration, "camera calibration for --videos (.json or OpenCV .yml)")->check(CLI::ExistingFile);
   run->add_option("--tags", a->tags, "tag set for --videos (.json)")->check(CLI::ExistingFile);
   run->add_option("--grf", a->grf, "ground reaction forces (.mot)")->check(CLI::ExistingFile);
   run->add_option("--loads", a->loads, "ExternalLoads .xml for the GRF")->check(CLI::ExistingFile);
+  run->add_option("--ik-tasks", a->ik_tasks,
+                  "IK task weights for the ik stage: an IKTaskSet .xml (or an IK setup's), or the .json equivalent; kept in "
+                  "job.json as ik.tasks")
+      ->check(CLI::ExistingFile);
   run->add_option("--options", a->options, "options JSON (e.g. a previous job.json)")->check(CLI::ExistingFile);
   run->add_option("--name", a->name, "output file stem (default: the marker file's name)");
   run->add_option("-o,--output", a->out, "output folder")->required();
   run->callback([a] {
     PipelineOptions options = a->options.empty() ? PipelineOptions{} : PipelineOptions::parse(text::read_file(a->options), a->options);
+    if (!a->ik_tasks.empty()) options.ik_tasks = nlohmann::json::parse(ik_tasks_json(read_ik_tasks(a->ik_tasks)));
     // Inputs: the command line, else the paths the options recorded.
     auto input = [&](const std::string& given, const char* key) {
       if (!given.empty()) return fs::absolute(given).string();
@@ -54,6 +63,7 @@ void add_run_command(CLI::App& app) {
     };
     TrialInputs in;
     in.model_path = input(a->model, "model");
+    in.generic_model_path = input(a->generic_model, "generic_model");
     const std::string markers = input(a->markers, "markers");
     const std::string grf = input(a->grf, "grf"), loads = input(a->loads, "loads");
     in.calibration_path = input(a->calibration, "calibration");
@@ -82,6 +92,7 @@ void add_run_command(CLI::App& app) {
                                                 : in.has_footage() ? std::string("capture") : fs::path(markers).stem().string();
     if (!is_safe_file_name(in.name)) throw InputError("cpgait run", 0, "name", "output stem '" + in.name + "' is not a safe file name");
     options.inputs = {{"model", in.model_path}, {"name", in.name}};
+    if (!in.generic_model_path.empty()) options.inputs["generic_model"] = in.generic_model_path;
     if (in.has_footage()) {
       options.inputs["videos"] = in.videos;
       options.inputs["calibration"] = in.calibration_path;

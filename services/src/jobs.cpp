@@ -181,6 +181,7 @@ void JobRunner::run_trial(const TrialRecord& t) {
     TrialInputs in;
     in.name = t.name;
     in.model_path = model_path(options.model_id);
+    if (!options.scale_muscles_from_id.empty()) in.generic_model_path = model_path(options.scale_muscles_from_id);
     in.marker_set_path = marker_set_path(options.model_id);
     load_footage_inputs((dir / "inputs").string(), in);
     if (!in.has_footage()) {

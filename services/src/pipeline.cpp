@@ -110,10 +110,14 @@ PipelineOptions PipelineOptions::parse(const std::string& text, const std::strin
 
 PipelineOptions PipelineOptions::from_json(const json& j, const std::string& source) {
   PipelineOptions o;
-  only_keys(j, {"model", "stages", "time_range", "ik", "id", "so", "cpg", "gait", "capture", "inputs"}, source, "");
+  only_keys(j, {"model", "scale_muscles_from", "stages", "time_range", "ik", "id", "so", "cpg", "gait", "capture", "inputs"}, source, "");
   if (j.contains("model")) {
     if (!j["model"].is_string()) bad(source, "model", "expected a model id string");
     o.model_id = j["model"].get<std::string>();
+  }
+  if (j.contains("scale_muscles_from")) {
+    if (!j["scale_muscles_from"].is_string()) bad(source, "scale_muscles_from", "expected a model id string");
+    o.scale_muscles_from_id = j["scale_muscles_from"].get<std::string>();
   }
   if (j.contains("stages")) {
     if (!j["stages"].is_array() || j["stages"].empty()) bad(source, "stages", "expected a non-empty array of stage names");
@@ -217,6 +221,7 @@ PipelineOptions PipelineOptions::from_json(const json& j, const std::string& sou
 json PipelineOptions::to_json() const {
   json j;
   if (!model_id.empty()) j["model"] = model_id;
+  if (!scale_muscles_from_id.empty()) j["scale_muscles_from"] = scale_muscles_from_id;
   j["stages"] = stages;
   if (time_range_s) j["time_range"] = {time_range_s->first, time_range_s->second};
   j["ik"]["bounds"] = ik_bounds == IkOptions::Bounds::kClampedOnly ? "clamped" : ik_bounds == IkOptions::Bounds::kAllRanges ? "all" : "none";
@@ -240,7 +245,9 @@ namespace {
 OsimReadResult read_trial_model(const TrialInputs& in) {
   OsimReadOptions o;
   o.marker_set_file = in.marker_set_path;
-  return read_osim(in.model_path, o);
+  OsimReadResult r = read_osim(in.model_path, o);
+  if (!in.generic_model_path.empty()) r.model = scale_muscle_parameters(r.model, read_osim(in.generic_model_path).model);
+  return r;
 }
 }  // namespace
 

@@ -16,6 +16,10 @@ namespace cpgait::services {
 
 // The documented options schema (all keys optional; defaults in brackets):
 //   {"model": "<model id>"            server only: which uploaded model
+//    "scale_muscles_from": "<model id>"   server only: the uploaded generic model the trial's model
+//                                     was scaled from; muscle fibre and tendon lengths are then scaled
+//                                     by each path's length ratio, as OpenSim's ScaleTool does (the
+//                                     CLI's --scale-muscles-from; see muscles/scale_muscle_parameters.h)
 //    "stages": ["ik","id","so"]       [all available]
 //    "time_range": [t0, t1]           seconds [the whole trial]
 //    "ik": {"bounds": "clamped"|"all"|"none",  ["clamped", as OpenSim]
@@ -31,9 +35,11 @@ namespace cpgait::services {
 //    "capture": {"max_reprojection_px": 2, "gap_fill_s": 0.05, "single_view": true,
 //                "sync": "index"|"time", "decimate": 3}    only with AprilTag footage (a "capture"
 //                                     stage then runs first and its markers feed IK)
-//    "inputs": {"model","markers","grf","loads": paths}   cpgait run only: what it ran on}
+//    "inputs": {"model","generic_model","markers","grf","loads": paths}   cpgait run only: what it
+//                                     ran on}
 struct PipelineOptions {
   std::string model_id;
+  std::string scale_muscles_from_id;
   std::vector<std::string> stages = {"ik", "id", "so", "cpg", "gait"};
   std::optional<std::pair<double, double>> time_range_s;
   IkOptions::Bounds ik_bounds = IkOptions::Bounds::kClampedOnly;
@@ -63,6 +69,7 @@ extern const std::vector<std::string> kStages;  // in run order (capture runs fi
 struct TrialInputs {
   std::string name = "trial";  // output file stem
   std::string model_path;
+  std::string generic_model_path;  // optional: the generic model to scale the muscle lengths from
   std::string marker_set_path;  // optional marker-set XML applied to the model
   std::string markers, markers_name;
   std::string grf, grf_name;      // empty when there are no loads

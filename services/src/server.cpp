@@ -220,6 +220,9 @@ class Api {
     if (options.model_id.empty()) return send_error(res, 422, "invalid_input", "options must name a model: {\"model\": \"<model id>\"}", "model");
     if (!store_.model(options.model_id))
       return send_error(res, 422, "unknown_model", "no model with id '" + options.model_id + "' (upload one to /api/v1/models)", "model");
+    if (!options.scale_muscles_from_id.empty() && !store_.model(options.scale_muscles_from_id))
+      return send_error(res, 422, "unknown_model", "no model with id '" + options.scale_muscles_from_id + "' (upload one to /api/v1/models)",
+                        "scale_muscles_from");
     options.inputs = json::object();
 
     TrialInputs in;
@@ -227,6 +230,7 @@ class Api {
     in.name = first_name.empty() ? "trial" : fs::path(first_name).stem().string();
     if (!is_safe_file_name(in.name)) in.name = "trial";
     in.model_path = jobs_.model_path(options.model_id);
+    if (!options.scale_muscles_from_id.empty()) in.generic_model_path = jobs_.model_path(options.scale_muscles_from_id);
     in.marker_set_path = jobs_.marker_set_path(options.model_id);
     if (!footage) {
       const auto markers = req.get_file_value("markers");

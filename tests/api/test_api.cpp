@@ -11,6 +11,7 @@
 #include <sstream>
 #include <thread>
 
+#include "cpgait/capture/ik_setup.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/fixtures/synthetic_trial.h"
@@ -84,8 +85,14 @@ int run_cli(const std::string& args) {
   return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
 }
 
-const std::vector<std::string> kResultSuffixes = {"_ik.mot", "_ik_marker_errors.sto", "_id.sto",
-                                                  "_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"};
+const std::vector<std::string> kResultSuffixes = {"_ik.mot",
+                                                  "_ik_marker_errors.sto",
+                                                  "_id.sto",
+                                                  "_StaticOptimization_activation.sto",
+                                                  "_StaticOptimization_force.sto",
+                                                  "_cpg.json",
+                                                  "_gait.mot",
+                                                  "_gait_residuals.sto"};
 
 }  // namespace
 
@@ -93,8 +100,11 @@ const std::vector<std::string> kResultSuffixes = {"_ik.mot", "_ik_marker_errors.
 // files equal what `cpgait run` writes for the same inputs; and that job.json reproduces them.
 TEST(ApiReference, Subject01UploadMatchesCliRun) {
   const std::string pl = cpgait::refdata::gait2392("pipeline/");
-  for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot", "subject01_walk1_grf.xml"})
+  const std::string generic = cpgait::refdata::gait2392("model/gait2392_simbody.osim");
+  for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot", "subject01_walk1_grf.xml",
+                        "subject01_Setup_IK.xml"})
     REQUIRE_REFERENCE(pl + f);
+  REQUIRE_REFERENCE(generic);
   const std::string dir = cpgait::refdata::temp_dir("api_subject01");
   ServerProcess server(dir + "/data");
   httplib::Client c("127.0.0.1", server.port());
@@ -106,7 +116,22 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
   const std::string model_id = body(m)["id"];
   EXPECT_TRUE(body(m)["warnings"].is_array());
 
-  const json options = {{"model", model_id}, {"time_range", {0.5, 2.5}}};
+  // The generic model the subject's was scaled from (its muscle lengths: scale_muscle_parameters.h).
+  auto g = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", slurp(generic), "gait2392_simbody.osim", "application/xml"}});
+  ASSERT_TRUE(g);
+  ASSERT_EQ(g->status, 201) << g->body;
+  const std::string generic_id = body(g)["id"];
+  // A model id that does not exist is refused, naming the field.
+  const json bad = {{"model", model_id}, {"scale_muscles_from", "no-such-model"}};
+  auto refused = c.Post("/api/v1/trials", trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", bad));
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 422);
+  EXPECT_EQ(body(refused)["error"]["field"], "scale_muscles_from");
+
+  // The whole trial (two gait cycles for the reproduced gait), the IK setup's marker weights.
+  const json options = {{"model", model_id},
+                        {"scale_muscles_from", generic_id},
+                        {"ik", {{"tasks", json::parse(cpgait::ik_tasks_json(cpgait::read_ik_tasks(pl + "subject01_Setup_IK.xml")))}}}};
   httplib::MultipartFormDataItems form = trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", options);
   form.push_back({"grf", slurp(pl + "subject01_walk1_grf.mot"), "subject01_walk1_grf.mot", "text/plain"});
   form.push_back({"loads", slurp(pl + "subject01_walk1_grf.xml"), "subject01_walk1_grf.xml", "application/xml"});
@@ -120,10 +145,19 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
   const json trial = body(c.Get(("/api/v1/trials/" + id).c_str()));
   EXPECT_EQ(trial["status"], "done");
   for (const auto& s : trial["stages"]) EXPECT_EQ(s["state"], "done") << s.dump();
+  // The reproduced gait through the service: two cycles, the ground carrying the body.
+  json gait;
+  for (const auto& s : trial["stages"])
+    if (s["name"] == "gait") gait = s["summary"];
+  ASSERT_TRUE(gait.is_object()) << trial.dump();
+  EXPECT_TRUE(gait["fell_at_s"].is_null()) << gait.dump();
+  EXPECT_GT(gait["simulated_s"].get<double>(), 2.4);
+  EXPECT_LT(gait["pelvis_residual_force_percent_bw"].get<double>(), 10.0);
 
   // The CLI on the same inputs and options.
   std::ofstream(dir + "/options.json") << options.dump();
-  ASSERT_EQ(run_cli("run --model " + pl + "OutputReference/subject01_simbody.osim --markers " + pl + "subject01_walk1.trc --grf " + pl +
+  ASSERT_EQ(run_cli("run --model " + pl + "OutputReference/subject01_simbody.osim --scale-muscles-from " + generic + " --markers " + pl +
+                    "subject01_walk1.trc --grf " + pl +
                     "subject01_walk1_grf.mot --loads " + pl + "subject01_walk1_grf.xml --options " + dir + "/options.json -o " + dir + "/cli"),
             0);
   for (const auto& suffix : kResultSuffixes) {
@@ -142,7 +176,7 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
   const json so = body(c.Get(("/api/v1/trials/" + id + "/results/so").c_str()));
   ASSERT_EQ(so["tables"].size(), 2u);
   EXPECT_EQ(so["tables"][0]["labels"].size(), 1u + 92u + 23u);  // time, muscles, one actuator per coordinate
-  EXPECT_EQ(so["tables"][0]["rows"], 121);
+  EXPECT_EQ(so["tables"][0]["rows"], 151);
   fs::remove_all(dir);
 }
 

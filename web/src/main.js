@@ -120,6 +120,9 @@ async function uploadView() {
     row('GRF (.mot)', h('input', { type: 'file', id: 'grf', name: 'grf', accept: '.mot,.sto' }), 'grf'),
     row('Loads (.xml)', h('input', { type: 'file', id: 'loads', name: 'loads', accept: '.xml' }), 'loads'),
     row('Model', h('select', { id: 'model', name: 'model' }, models.map((m) => h('option', { value: m.id }, `${m.name} (${m.summary.coordinates} coordinates, ${m.summary.muscles} muscles)`))), 'model'),
+    row('Muscle lengths scaled from', h('select', { id: 'scale_muscles_from', name: 'scale_muscles_from' },
+      h('option', { value: '' }, 'as in the model'),
+      models.map((m) => h('option', { value: m.id }, `${m.name} (the generic model it was scaled from)`))), 'scale_muscles_from'),
     row('Time range (s)', h('span', {}, h('input', { type: 'number', step: 'any', id: 't0', placeholder: 'start' }), ' – ', h('input', { type: 'number', step: 'any', id: 't1', placeholder: 'end' })), 'time_range'),
     row('Stages', h('span', {}, ['ik', 'id', 'so', 'cpg', 'gait'].map((s) => h('label', {}, h('input', { type: 'checkbox', name: 'stage', value: s, checked: true }), ` ${s.toUpperCase()} `))), 'stages'),
     h('div', { class: 'form-error', id: 'form-error' }),
@@ -145,6 +148,8 @@ async function uploadView() {
     for (const p of ['markers', 'grf', 'loads', 'calibration', 'tags']) { const f = form.querySelector('#' + p).files[0]; if (f) fd.append(p, f, f.name); }
     for (const v of form.querySelector('#videos').files) fd.append('videos', v, v.name);
     const options = { model: form.querySelector('#model').value };
+    const generic = form.querySelector('#scale_muscles_from').value;
+    if (generic) options.scale_muscles_from = generic;
     const t0 = form.querySelector('#t0').value, t1 = form.querySelector('#t1').value;
     if (t0 !== '' && t1 !== '') options.time_range = [Number(t0), Number(t1)];
     options.stages = [...form.querySelectorAll('input[name=stage]:checked')].map((c) => c.value);
@@ -153,7 +158,7 @@ async function uploadView() {
       const r = await api('/trials', { method: 'POST', body: fd });
       location.hash = `#/trial/${r.id}`;
     } catch (err) {
-      showError(form, err, (d) => (['markers', 'grf', 'loads', 'videos', 'calibration', 'tags'].includes(d.part) ? d.part : ['model', 'time_range', 'stages', 'videos', 'calibration', 'tags'].includes(d.field) ? d.field : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
+      showError(form, err, (d) => (['markers', 'grf', 'loads', 'videos', 'calibration', 'tags'].includes(d.part) ? d.part : ['model', 'scale_muscles_from', 'time_range', 'stages', 'videos', 'calibration', 'tags'].includes(d.field) ? d.field : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
     }
   });
   modelUpload.addEventListener('submit', async (ev) => {

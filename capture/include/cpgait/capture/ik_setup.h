@@ -51,5 +51,7 @@ IkSetup read_ik_setup(const std::string& path);
 // An IKTaskSet XML (root <IKTaskSet> or inside <OpenSimDocument>) or a .json task file.
 IkTaskSet read_ik_tasks(const std::string& path);
 IkTaskSet parse_ik_tasks_json(const std::string& content, const std::string& name);
+// The JSON equivalent of a task set (parse_ik_tasks_json reads it back unchanged).
+std::string ik_tasks_json(const IkTaskSet& tasks);
 
 }  // namespace cpgait
