@@ -89,12 +89,14 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   };
 
   const double ref_end = ref.time_s.back();
-  double tau0 = o.begin_time_s >= 0 ? o.begin_time_s : o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s;
+  const double tau_at_cpg_start = o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s;  // the CPG's start state fits here
+  double tau0 = o.begin_time_s >= 0 ? o.begin_time_s : tau_at_cpg_start;
   if (o.begin_time_s < 0 && tau0 + o.duration_s * o.speed > ref_end)  // begin earlier rather than run past the trial
     tau0 = std::max(ref.time_s.front(), ref_end - o.duration_s * o.speed);
   r.reference_begin_s = tau0;
   if (tau0 < ref.time_s.front() || tau0 > ref_end)
-    throw InputError(reference.name, 0, "start_time", "the start (heel strike + the CPG's start phase) lies outside the reference kinematics");
+    throw InputError(reference.name, 0, o.begin_time_s >= 0 ? "begin_time" : "start_time",
+                     "the simulation would begin outside the reference kinematics (begin time, or heel strike + the CPG's start phase)");
   const double tracked_until = std::min(o.duration_s, (ref_end - tau0) / o.speed);  // reference time available
   if (tracked_until < o.duration_s)
     r.warnings.push_back("the reference kinematics end after " + std::to_string(tracked_until) +
@@ -125,8 +127,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   matsuoka_prepare(network, scratch);
   // Begun elsewhere than at the CPG's start phase: the network runs (without feedback) on its limit
   // cycle to the phase the reference has at the beginning.
-  if (tau0 != o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s) {
-    double phase = (tau0 - o.start_time_s) / cpg_in.cycle_s - cpg.phase_at_start;
+  if (tau0 != tau_at_cpg_start) {
+    double phase = (tau0 - tau_at_cpg_start) / cpg_in.cycle_s;
     phase -= std::floor(phase);
     const int n = static_cast<int>(std::lround(phase * cpg_in.cycle_s / cpg.speed / o.control_interval_s));
     const Eigen::VectorXd none = Eigen::VectorXd::Zero(network.size());
@@ -210,6 +212,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   ro.max_step_s = o.control_interval_s;
 
   const double dt = o.control_interval_s;
+  const double body_mass_kg = model.total_mass_kg();
   const int steps = static_cast<int>(std::lround(o.duration_s / dt));
   std::vector<Eigen::VectorXd> rec_q, rec_ref, rec_res, rec_exc, rec_contact;
   Eigen::VectorXd u_in(network.size()), sig(signals.size());
@@ -235,12 +238,11 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       // Only M^-1's root columns are needed: qdd = qdd0 + M^-1 E tau_root.
       const int nr = static_cast<int>(root.size());
       const Eigen::MatrixXd Minv_root = ws.fd.llt.solve(root_columns);
-      const double mass = model.total_mass_kg();
       std::vector<int> rotations;
       for (int i = 0; i < nr; ++i) {
         const int c = root[i];
         if (model.coordinates[c].is_angle()) rotations.push_back(i);
-        else tau_root[c] = mass * (o.pelvis_translation_kp * (q_ref[c] - x[c]) + o.pelvis_translation_kv * (u_ref[c] - x[nq + c]));
+        else tau_root[c] = body_mass_kg * (o.pelvis_translation_kp * (q_ref[c] - x[c]) + o.pelvis_translation_kv * (u_ref[c] - x[nq + c]));
       }
       const int nrot = static_cast<int>(rotations.size());
       if (nrot > 0) {
