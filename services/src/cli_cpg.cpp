@@ -212,7 +212,7 @@ void add_cpg_commands(CLI::App& app) {
       o.start_time_s = strikes.front();
       std::printf("start: heel strike of %s at %.3f s (Zeni)\n", foot.c_str(), o.start_time_s);
     }
-    // The ground under the recorded feet, as CMC places it.
+    // The ground under the recorded feet (as CMC places it), the spheres fitted to the trial's feet.
     if (g->contacts.empty()) {
       if (g->no_foot_fit) {
         place_ground_under_feet(model, contacts, k.time_s, k.q);

@@ -481,7 +481,7 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     } else if (feet.spheres.empty()) {
       summary["not_run"] = "the model has no calcn_/toes_ or foot_ bodies for contact spheres";
     } else if (start < 0 || available < 0.5 * cycle_s) {
-      summary["not_run"] = "the trial has less than half a gait cycle after its first usable heel strike";
+      summary["not_run"] = "the trial is shorter than half a gait cycle, or has no usable heel strike";
     } else {
       const Storage ik = make_storage("ik", coordinate_names(model), ik_time, ik_q, false);
       const FootSphereFit fit = fit_foot_spheres_to_trial(model, feet, ik_time, ik_q);

@@ -88,24 +88,33 @@ ContactSet read_contact_set(const std::string& path, const Model& model) {
   return parse_contact_set_json(text::read_file(path), path, model);
 }
 
-void place_ground_under_feet(const Model& model, ContactSet& set, const std::vector<double>& t, const Eigen::MatrixXd& q) {
-  if (set.spheres.empty() || q.rows() == 0) return;
-  // One pass of forward kinematics: every sphere's centre in every pose.
+std::vector<Eigen::Vector3d> sphere_centres_over_poses(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q) {
   KinematicsWorkspace<double> kws(model);
   const std::size_t ns = set.spheres.size();
-  std::vector<Eigen::Vector3d> centre(q.rows() * ns);
-  std::vector<int> lowest(q.rows());
-  double bottom = 1e30;
+  std::vector<Eigen::Vector3d> centre(static_cast<std::size_t>(q.rows()) * ns);
   for (int i = 0; i < q.rows(); ++i) {
     const Eigen::VectorXd qi = q.row(i).transpose();
     forward_kinematics(model, qi.data(), kws);
+    for (std::size_t s = 0; s < ns; ++s) {
+      const auto& B = kws.body_in_ground[static_cast<std::size_t>(set.spheres[s].body)];
+      centre[static_cast<std::size_t>(i) * ns + s] = B.rotation * set.spheres[s].location_m + B.translation_m;
+    }
+  }
+  return centre;
+}
+
+void place_ground_under_feet(const Model& model, ContactSet& set, const std::vector<double>& t, const Eigen::MatrixXd& q) {
+  if (set.spheres.empty() || q.rows() == 0) return;
+  const std::size_t ns = set.spheres.size();
+  const std::vector<Eigen::Vector3d> centre = sphere_centres_over_poses(model, set, q);
+  std::vector<int> lowest(q.rows());
+  double bottom = 1e30;
+  for (int i = 0; i < q.rows(); ++i) {
     double low = 1e30;
     for (std::size_t s = 0; s < ns; ++s) {
-      const auto& sp = set.spheres[s];
-      const auto& B = kws.body_in_ground[sp.body];
-      centre[i * ns + s] = B.rotation * sp.location_m + B.translation_m;
-      if (centre[i * ns + s].y() - sp.radius_m < low) {
-        low = centre[i * ns + s].y() - sp.radius_m;
+      const double b = centre[i * ns + s].y() - set.spheres[s].radius_m;
+      if (b < low) {
+        low = b;
         lowest[i] = static_cast<int>(s);
       }
     }

@@ -1,8 +1,8 @@
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "cpgait/dynamics/contact.h"
-#include "cpgait/kinematics/forward_kinematics.h"
 
 namespace cpgait {
 
@@ -14,17 +14,11 @@ FootSphereFit fit_foot_spheres_to_trial(const Model& model, ContactSet& set, con
   const int n = static_cast<int>(q_samples.rows());
   if (ns == 0 || n == 0) return fit;
   // Every sphere's bottom above the ground in every pose.
-  KinematicsWorkspace<double> kws(model);
+  const std::vector<Eigen::Vector3d> centre = sphere_centres_over_poses(model, set, q_samples);
   Eigen::MatrixXd h(n, static_cast<Eigen::Index>(ns));
-  for (int i = 0; i < n; ++i) {
-    const Eigen::VectorXd qi = q_samples.row(i).transpose();
-    forward_kinematics(model, qi.data(), kws);
-    for (std::size_t s = 0; s < ns; ++s) {
-      const auto& sp = set.spheres[s];
-      const auto& B = kws.body_in_ground[static_cast<std::size_t>(sp.body)];
-      h(i, static_cast<Eigen::Index>(s)) = (B.rotation * sp.location_m + B.translation_m).y() - sp.radius_m - set.ground_height_m;
-    }
-  }
+  for (int i = 0; i < n; ++i)
+    for (std::size_t s = 0; s < ns; ++s)
+      h(i, static_cast<Eigen::Index>(s)) = centre[static_cast<std::size_t>(i) * ns + s].y() - set.spheres[s].radius_m - set.ground_height_m;
   // Each sphere's lowest point brought to the ground. A radius change moves a sphere's bottom by the
   // same amount in every orientation, where a moved centre would tilt with the foot. A sphere that
   // never comes within max_lift_m of the ground (a foot that does not step) is left alone.
@@ -35,8 +29,9 @@ FootSphereFit fit_foot_spheres_to_trial(const Model& model, ContactSet& set, con
     const auto col = static_cast<Eigen::Index>(s);
     const double low = h.col(col).minCoeff();
     if (low - low_all > max_lift_m) {
-      fit.warnings.push_back("contact sphere " + set.spheres[s].name + " never comes within " + std::to_string(max_lift_m * 1000) +
-                             " mm of the lowest foot in the trial: left as it was");
+      char mm[32];
+      std::snprintf(mm, sizeof mm, "%.0f mm", max_lift_m * 1000);
+      fit.warnings.push_back("contact sphere " + set.spheres[s].name + " never comes within " + mm + " of the lowest foot in the trial: left as it was");
       continue;
     }
     fit.radius_change_m[s] = low;
@@ -65,6 +60,7 @@ FootSphereFit fit_foot_spheres_to_trial(const Model& model, ContactSet& set, con
     set.spheres[s].radius_m += fit.radius_change_m[s];
     if (set.spheres[s].radius_m < 0.005) {
       fit.warnings.push_back("contact sphere " + set.spheres[s].name + " would shrink below 5 mm: kept at 5 mm");
+      fit.radius_change_m[s] += 0.005 - set.spheres[s].radius_m;
       set.spheres[s].radius_m = 0.005;
     }
   }

@@ -49,6 +49,10 @@ Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& s
 ContactSet parse_contact_set_json(const std::string& text, const std::string& name, const Model& model);
 ContactSet read_contact_set(const std::string& path, const Model& model);
 
+// Every sphere's centre (ground frame, m) in every pose (rows of q_samples): element i * spheres + s
+// is pose i's centre of sphere s.
+std::vector<Eigen::Vector3d> sphere_centres_over_poses(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q_samples);
+
 // Puts the set's ground under recorded feet (poses q at times t, one row each), for simulations on
 // spheres that follow a recorded trial:
 // - height: the lowest sphere bottom over the poses, raised by how far half the body weight presses
