@@ -98,14 +98,14 @@ static void BM_CmcSubject01(benchmark::State& state) {
 BENCHMARK(BM_CmcSubject01)->Unit(benchmark::kSecond)->Iterations(2);
 
 // The reproduced gait on subject01, one thread: a CPG fitted to OpenSim 4.1's static-optimization
-// activations drives the muscles on contact spheres (fitted to the trial) for two gait cycles. Counter: simulated seconds
-// per wall-clock second (the target: 10). Argument 0: rigid tendons (the default), 1:
-// compliant.
+// activations drives the muscles on contact spheres (fitted to the trial) for two gait cycles.
+// Counter: simulated seconds per wall-clock second (the target: 10). Argument 0: rigid
+// tendons (the default), 1: compliant.
 static void BM_ReproducedGaitSubject01(benchmark::State& state) {
   const std::string pl = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
   const std::string so = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim41-here/SO/subject01_walk1_StaticOptimization_activation.sto";
   if (!std::filesystem::exists(so) || !std::filesystem::exists(pl + "subject01_walk1.trc")) {
-    state.SkipWithError("reference data absent: ../shared/reference/opensim41-here");
+    state.SkipWithError("reference data absent: ../shared/reference/opensim41-here or opensim/gait2392/pipeline");
     return;
   }
   const std::string generic = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/model/gait2392_simbody.osim";
