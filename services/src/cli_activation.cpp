@@ -227,7 +227,10 @@ void run_forward_setup(const std::string& setup_path, const ToolOverrides& o) {
   run_forward(in);
 }
 
-void add_activation_commands(CLI::App& app) {
+namespace {
+
+// so
+void add_so_command(CLI::App& app) {
   auto* so = app.add_subcommand(
       "so",
       "Static optimization: muscle activations and actuator controls that reproduce the inverse-dynamics\n"
@@ -261,6 +264,10 @@ void add_activation_commands(CLI::App& app) {
     a->options.use_muscle_physiology = !*no_physiology;
     run_so(*a);
   });
+}
+
+// cmc
+void add_cmc_command(CLI::App& app) {
   auto* cmc = app.add_subcommand(
       "cmc",
       "Computed muscle control (OpenSim's CMC, fast target): muscle excitations that make the muscle-driven\n"
@@ -299,6 +306,10 @@ void add_activation_commands(CLI::App& app) {
     if (ctime->size() == 2) c->options.time_range_s = std::make_pair((*ctime)[0], (*ctime)[1]);
     run_cmc(*c);
   });
+}
+
+// forward
+void add_forward_command(CLI::App& app) {
   auto* fwd = app.add_subcommand(
       "forward",
       "Forward simulation (OpenSim's Forward tool): the muscle-driven model from an initial state under given\n"
@@ -335,6 +346,14 @@ void add_activation_commands(CLI::App& app) {
     if (*kv >= 0) fw->options.correction_kv = *kv;
     run_forward(*fw);
   });
+}
+
+}  // namespace
+
+void add_activation_commands(CLI::App& app) {
+  add_so_command(app);
+  add_cmc_command(app);
+  add_forward_command(app);
 }
 
 }  // namespace cpgait::services

@@ -31,14 +31,9 @@ Storage cpg_table(const std::string& name, const std::vector<std::string>& label
   return make_storage(name, labels, time, values, false);
 }
 
-}  // namespace
-
-void add_cpg_commands(CLI::App& app) {
-  auto* cpg = app.add_subcommand("cpg", "Central pattern generators (Matsuoka neurons): fit one to a trial's muscle patterns, run one.");
-  cpg->require_subcommand(1);
-
-  // cpg fit
-  auto* fit = cpg->add_subcommand(
+// cpg fit
+void add_cpg_fit_command(CLI::App& cpg) {
+  auto* fit = cpg.add_subcommand(
       "fit",
       "Fit a CPG to muscle activations or excitations (.sto: static optimization's _activation.sto, CMC's\n"
       "_controls.sto). Gait cycles run from heel strike to heel strike: give the times (--cycle-starts, s)\n"
@@ -102,8 +97,11 @@ void add_cpg_commands(CLI::App& app) {
     std::printf("wrote %s, %s_target.sto, %s_fitted.sto\n", f->out.c_str(), stem.c_str(), stem.c_str());
   });
 
-  // cpg run
-  auto* run = cpg->add_subcommand(
+}
+
+// cpg run
+void add_cpg_run_command(CLI::App& cpg) {
+  auto* run = cpg.add_subcommand(
       "run",
       "Run a fitted CPG (model JSON from `cpg fit`): writes <output>_neurons.sto (every neuron's output y)\n"
       "and <output>_excitations.sto (each muscle's excitation, 0-1), sampled every --dt seconds. Knobs:\n"
@@ -144,7 +142,63 @@ void add_cpg_commands(CLI::App& app) {
     std::printf("ran %.3f s (%zu steps, cycle %.3f s at speed %.2f); wrote %s_neurons.sto and %s_excitations.sto\n", a->duration_s,
                 r.time_s.size(), m.cycle_s / m.speed, m.speed, a->out.c_str(), a->out.c_str());
   });
-  // gait: the reproduced gait, driven by a fitted CPG.
+}
+
+struct GaitArgs {
+  std::string model, generic_model, cpg, kinematics, contacts, out;
+  double start = -1;
+  ReproducedGaitOptions options;
+  bool no_residuals = false, no_foot_fit = false;
+};
+
+void run_gait(const GaitArgs& g) {
+  const OsimReadResult mr = read_muscle_model(g.model, g.generic_model);
+  const Model& model = mr.model;
+  const CpgModel cpg = read_cpg_model(g.cpg);
+  const Storage kin = read_storage(g.kinematics);
+  ContactSet contacts = g.contacts.empty() ? default_foot_contacts(model) : read_contact_set(g.contacts, model);
+  if (contacts.spheres.empty())
+    throw InputError(g.model, 0, "contacts", "the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --contacts");
+  ReproducedGaitOptions o = g.options;
+  o.pelvis_residuals = !g.no_residuals;
+  const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
+  if (g.start >= 0) {
+    o.start_time_s = g.start;
+  } else {
+    const std::string foot = model.body_index("calcn_r") >= 0 ? "calcn_r" : "foot_r";
+    const auto strikes = heel_strikes_zeni(model, k.time_s, k.q, foot);
+    if (strikes.empty()) throw InputError(g.kinematics, 0, "start", "no heel strike of " + foot + " found: give --start");
+    o.start_time_s = strikes.front();
+    std::printf("start: heel strike of %s at %.3f s (Zeni)\n", foot.c_str(), o.start_time_s);
+  }
+  // The ground under the recorded feet (as CMC places it), the spheres fitted to the trial's feet.
+  if (g.contacts.empty()) {
+    if (g.no_foot_fit) {
+      place_ground_under_feet(model, contacts, k.time_s, k.q);
+    } else {
+      const FootSphereFit fit = fit_foot_spheres_to_trial(model, contacts, k.time_s, k.q);
+      print_warnings(fit.warnings);
+      std::printf("feet fitted to the trial: depth %.1f mm (mean sphere force %.0f N); radius changes", fit.depth_m * 1000, fit.mean_force_N);
+      for (std::size_t s = 0; s < contacts.spheres.size(); ++s)
+        std::printf(" %s %+.1f mm", contacts.spheres[s].name.c_str(), fit.radius_change_m[s] * 1000);
+      std::printf("\n");
+    }
+    std::printf("ground under the recorded feet: y = %.4f m, moving at (%.2f, %.2f, %.2f) m/s%s\n", contacts.ground_height_m,
+                contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.y(), contacts.ground_velocity_m_s.z(),
+                contacts.ground_velocity_m_s.norm() > 0 ? " (a treadmill)" : "");
+  }
+  const ReproducedGaitResult r = reproduce_gait(model, cpg, kin, contacts, o);
+  print_warnings(r.warnings);
+  if (!fs::path(g.out).parent_path().empty()) ensure_directory(fs::path(g.out).parent_path().string());
+  write_storage_atomic(reproduced_gait_motion_table(model, r), g.out + "_gait.mot");
+  write_storage_atomic(reproduced_gait_residual_table(r), g.out + "_gait_residuals.sto");
+  write_storage_atomic(reproduced_gait_contact_table(r), g.out + "_gait_contact_forces.sto");
+  write_text_atomic(g.out + "_gait.json", reproduced_gait_metrics(model, r).dump(2) + "\n");
+  std::printf("%s\nwrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", r.BriefReport().c_str(), g.out.c_str());
+}
+
+// gait: the reproduced gait, driven by a fitted CPG.
+void add_gait_command(CLI::App& app) {
   auto* gait = app.add_subcommand(
       "gait",
       "Reproduced gait: the muscle-driven model on contact spheres (no GRF) fitted to the trial's feet, excited\n"
@@ -153,12 +207,6 @@ void add_cpg_commands(CLI::App& app) {
       "without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
       "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
       "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
-  struct GaitArgs {
-    std::string model, generic_model, cpg, kinematics, contacts, out;
-    double start = -1;
-    ReproducedGaitOptions options;
-    bool no_residuals = false, no_foot_fit = false;
-  };
   auto g = std::make_shared<GaitArgs>();
   gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
   gait->add_option("--scale-muscles-from", g->generic_model,
@@ -192,51 +240,17 @@ void add_cpg_commands(CLI::App& app) {
                  "feet with body weight on average");
   gait->add_option("--contacts", g->contacts, "contact spheres JSON (cpgait.contact/1); default: two per foot")->check(CLI::ExistingFile);
   gait->add_option("-o,--output", g->out, "output prefix")->required();
-  gait->callback([g] {
-    const OsimReadResult mr = read_muscle_model(g->model, g->generic_model);
-    const Model& model = mr.model;
-    const CpgModel cpg = read_cpg_model(g->cpg);
-    const Storage kin = read_storage(g->kinematics);
-    ContactSet contacts = g->contacts.empty() ? default_foot_contacts(model) : read_contact_set(g->contacts, model);
-    if (contacts.spheres.empty())
-      throw InputError(g->model, 0, "contacts", "the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --contacts");
-    ReproducedGaitOptions o = g->options;
-    o.pelvis_residuals = !g->no_residuals;
-    const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
-    if (g->start >= 0) {
-      o.start_time_s = g->start;
-    } else {
-      const std::string foot = model.body_index("calcn_r") >= 0 ? "calcn_r" : "foot_r";
-      const auto strikes = heel_strikes_zeni(model, k.time_s, k.q, foot);
-      if (strikes.empty()) throw InputError(g->kinematics, 0, "start", "no heel strike of " + foot + " found: give --start");
-      o.start_time_s = strikes.front();
-      std::printf("start: heel strike of %s at %.3f s (Zeni)\n", foot.c_str(), o.start_time_s);
-    }
-    // The ground under the recorded feet (as CMC places it), the spheres fitted to the trial's feet.
-    if (g->contacts.empty()) {
-      if (g->no_foot_fit) {
-        place_ground_under_feet(model, contacts, k.time_s, k.q);
-      } else {
-        const FootSphereFit fit = fit_foot_spheres_to_trial(model, contacts, k.time_s, k.q);
-        print_warnings(fit.warnings);
-        std::printf("feet fitted to the trial: depth %.1f mm (mean sphere force %.0f N); radius changes", fit.depth_m * 1000, fit.mean_force_N);
-        for (std::size_t s = 0; s < contacts.spheres.size(); ++s)
-          std::printf(" %s %+.1f mm", contacts.spheres[s].name.c_str(), fit.radius_change_m[s] * 1000);
-        std::printf("\n");
-      }
-      std::printf("ground under the recorded feet: y = %.4f m, moving at (%.2f, %.2f, %.2f) m/s%s\n", contacts.ground_height_m,
-                  contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.y(), contacts.ground_velocity_m_s.z(),
-                  contacts.ground_velocity_m_s.norm() > 0 ? " (a treadmill)" : "");
-    }
-    const ReproducedGaitResult r = reproduce_gait(model, cpg, kin, contacts, o);
-    print_warnings(r.warnings);
-    if (!fs::path(g->out).parent_path().empty()) ensure_directory(fs::path(g->out).parent_path().string());
-    write_storage_atomic(reproduced_gait_motion_table(model, r), g->out + "_gait.mot");
-    write_storage_atomic(reproduced_gait_residual_table(r), g->out + "_gait_residuals.sto");
-    write_storage_atomic(reproduced_gait_contact_table(r), g->out + "_gait_contact_forces.sto");
-    write_text_atomic(g->out + "_gait.json", reproduced_gait_metrics(model, r).dump(2) + "\n");
-    std::printf("%s\nwrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", r.BriefReport().c_str(), g->out.c_str());
-  });
+  gait->callback([g] { run_gait(*g); });
+}
+
+}  // namespace
+
+void add_cpg_commands(CLI::App& app) {
+  auto* cpg = app.add_subcommand("cpg", "Central pattern generators (Matsuoka neurons): fit one to a trial's muscle patterns, run one.");
+  cpg->require_subcommand(1);
+  add_cpg_fit_command(*cpg);
+  add_cpg_run_command(*cpg);
+  add_gait_command(app);
 }
 
 }  // namespace cpgait::services

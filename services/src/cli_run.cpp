@@ -6,6 +6,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/ik_setup.h"
+#include "cpgait/video/capture_markers.h"
 #include "pipeline.h"
 
 namespace cpgait::services {
@@ -28,11 +29,12 @@ void add_run_command(CLI::App& app) {
       "Run every stage on one trial (IK, then ID, then static optimization), as the server does.\n"
       "Inputs: .osim model, .trc markers (or AprilTag videos with their calibration and tag set: a capture\n"
       "stage then makes the markers), optional GRF .mot with its ExternalLoads .xml, optional options\n"
-      "JSON (see services/src/pipeline.h for the schema). Writes all result files and job.json (the exact\n"
+      "JSON (its JSON Schema: --print-options-schema). Writes all result files and job.json (the exact\n"
       "options and input paths) into DIR; `cpgait run --options DIR/job.json -o DIR2` reproduces them.");
   struct Args {
     std::string model, generic_model, ik_tasks, markers, grf, loads, options, name, out, calibration, tags;
     std::vector<std::string> videos;
+    bool print_schema = false;
   };
   auto a = std::make_shared<Args>();
   run->add_option("--model", a->model, "OpenSim model (.osim)")->check(CLI::ExistingFile);
@@ -51,10 +53,18 @@ void add_run_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   run->add_option("--options", a->options, "options JSON (e.g. a previous job.json)")->check(CLI::ExistingFile);
   run->add_option("--name", a->name, "output file stem (default: the marker file's name)");
-  run->add_option("-o,--output", a->out, "output folder")->required();
+  run->add_option("-o,--output", a->out, "output folder (required unless --print-options-schema)");
+  run->add_flag("--print-options-schema", a->print_schema,
+                "print the options document's JSON Schema (every stage's fields, types, defaults, units) and exit");
   run->callback([a] {
-    PipelineOptions options = a->options.empty() ? PipelineOptions{} : PipelineOptions::parse(text::read_file(a->options), a->options);
-    if (!a->ik_tasks.empty()) options.ik_tasks = nlohmann::json::parse(ik_tasks_json(read_ik_tasks(a->ik_tasks)));
+    if (a->print_schema) {
+      std::printf("%s\n", pipeline_options_schema().dump(2).c_str());
+      return;
+    }
+    if (a->out.empty()) throw CLI::RequiredError("--output");
+    PipelineOptions options = a->options.empty() ? PipelineOptions() : PipelineOptions::parse(text::read_file(a->options), a->options);
+    if (!a->ik_tasks.empty())
+      options.set_stage_option("ik", "tasks", nlohmann::json::parse(ik_tasks_json(read_ik_tasks(a->ik_tasks))), a->ik_tasks);
     // Inputs: the command line, else the paths the options recorded.
     auto input = [&](const std::string& given, const char* key) {
       if (!given.empty()) return fs::absolute(given).string();

@@ -34,10 +34,8 @@ nlohmann::json detection_json(const video::TagDetection& d) {
           {"hamming", d.hamming}};
 }
 
-}  // namespace
-
-void add_video_commands(CLI::App& app) {
-  // detect
+// detect
+void add_detect_command(CLI::App& app) {
   auto* detect = app.add_subcommand("detect",
                                     "Detect AprilTags in images and print them as JSON: per image its size and every tag's id,\n"
                                     "corners (pixels, OpenCV convention: pixel centres at integers; AprilTag's corner order),\n"
@@ -64,8 +62,10 @@ void add_video_commands(CLI::App& app) {
     }
     std::printf("%s\n", out.dump(2).c_str());
   });
+}
 
-  // calibrate
+// calibrate
+void add_calibrate_command(CLI::App& app) {
   auto* cal = app.add_subcommand("calibrate",
                                  "Calibrate cameras from footage of an AprilGrid board (board JSON: rows, cols, tag_size_m,\n"
                                  "spacing, family, double_sided). Each video is NAME=PATH or a file named after its camera.\n"
@@ -107,8 +107,10 @@ void add_video_commands(CLI::App& app) {
     write_text_atomic(c->out, video::format_calibration_json(r.rig));
     std::printf("%s\nwrote %s\n", r.summary.BriefReport().c_str(), c->out.c_str());
   });
+}
 
-  // register-tags
+// register-tags
+void add_register_tags_command(CLI::App& app) {
   auto* reg = app.add_subcommand("register-tags",
                                  "Register a tag set on a static trial (the subject standing still), as OpenSim's MarkerPlacer:\n"
                                  "IK with the approximate tag poses, then each seen tag's pose on its body re-estimated from\n"
@@ -132,8 +134,10 @@ void add_video_commands(CLI::App& app) {
     write_text_atomic(g->out, video::format_tag_set_json(out));
     std::printf("%s\n%s\nwrote %s\n", r.summary.BriefReport().c_str(), s.BriefReport().c_str(), g->out.c_str());
   });
+}
 
-  // capture
+// capture
+void add_capture_command(CLI::App& app) {
   auto* cap = app.add_subcommand("capture",
                                  "Turn AprilTag footage from calibrated cameras into virtual markers: detect tags in every\n"
                                  "video (in parallel), pair frames, triangulate each tag corner, and write a TRC (mm) with\n"
@@ -173,6 +177,15 @@ void add_video_commands(CLI::App& app) {
     std::printf("%s\nwrote %s, %s_quality.sto, %s_markers.xml\n", r.summary.BriefReport().c_str(), k->out.c_str(), stem.c_str(),
                 stem.c_str());
   });
+}
+
+}  // namespace
+
+void add_video_commands(CLI::App& app) {
+  add_detect_command(app);
+  add_calibrate_command(app);
+  add_register_tags_command(app);
+  add_capture_command(app);
 }
 
 }  // namespace cpgait::services

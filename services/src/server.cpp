@@ -60,14 +60,6 @@ json table_json(const std::string& file, const Storage& s) {
   return j;
 }
 
-const std::map<std::string, std::vector<std::string>> kStageFiles = {
-    {"ik", {"_ik.mot", "_ik_marker_errors.sto"}},
-    {"id", {"_id.sto"}},
-    {"so", {"_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"}},
-    {"cpg", {"_cpg_target.sto", "_cpg_fitted.sto", "_cpg_neurons.sto"}},
-    {"gait", {"_gait.mot", "_gait_residuals.sto"}},
-    {"capture", {"_capture_quality.sto"}}};
-
 class Api {
  public:
   Api(const ServerOptions& o, Store& store, EventHub& events, Metrics& metrics, JobRunner& jobs)
@@ -76,6 +68,8 @@ class Api {
   void install(httplib::Server& s) {
     s.Get("/healthz", [&](const auto&, auto& res) { send_json(res, 200, {{"status", "ok"}}); });
     s.Get("/metrics", [&](const auto&, auto& res) { metrics(res); });
+    s.Get("/api/v1/options/schema", [&](const auto& req, auto& res) { if (auth(req, res)) send_json(res, 200, pipeline_options_schema()); });
+    s.Get("/api/v1/stages", [&](const auto& req, auto& res) { if (auth(req, res)) send_json(res, 200, {{"stages", pipeline_stages_json()}}); });
     s.Get("/api/v1/models", [&](const auto& req, auto& res) { if (auth(req, res)) list_models(res); });
     s.Post("/api/v1/models", [&](const auto& req, auto& res) { if (auth(req, res)) upload_model(req, res); });
     s.Post("/api/v1/trials", [&](const auto& req, auto& res) { if (auth(req, res)) upload_trial(req, res); });
@@ -187,44 +181,116 @@ class Api {
   }
 
   void upload_trial(const httplib::Request& req, httplib::Response& res) {
-    if (!req.is_multipart_form_data())
-      return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'markers' part (.trc) or 'videos' parts");
+    if (!check_trial_parts(req, res)) return;
+    const bool footage = req.files.count("videos") > 0;
+    std::optional<PipelineOptions> options = trial_options(req, res);
+    if (!options) return;
+    TrialInputs in = trial_inputs(req, *options, footage);
+    // Everything is written into a temporary folder, validated there, and appears complete (rename).
+    TrialRecord t;
+    t.id = new_id();
+    const fs::path tmp = fs::path(o_.data_dir) / "trials" / (t.id + ".tmp"), dir = jobs_.trial_dir(t.id);
+    auto discard = [&] {
+      std::error_code ec;
+      fs::remove_all(tmp, ec);
+    };
+    try {
+      save_trial_inputs(req, tmp / "inputs", in, footage);
+    } catch (const std::exception& e) {
+      discard();
+      return send_error(res, 500, "storage_failed", e.what());
+    }
+    try {
+      validate_inputs(in, *options);
+    } catch (const InputError& e) {
+      discard();
+      // Errors name the uploaded file, not where the server keeps it.
+      const std::string shown = fs::path(e.file()).filename().string();
+      return send_input_error(res, InputError(shown, e.line(), e.field(), e.message()), uploaded_part(e.file(), in, footage));
+    }
+    t.name = in.name;
+    t.status = "queued";
+    t.created_at = t.updated_at = now_iso8601();
+    t.options = options->to_json();
+    for (const Stage* s : options->table())
+      if (s->applies(in)) t.stages.push_back({s->name(), options->runs(*s, in) ? "pending" : "skipped", 0, 0, json::object()});
+    try {
+      fs::rename(tmp, dir);
+      store_.insert_trial(t);
+    } catch (const std::exception& e) {
+      discard();
+      std::error_code ec;
+      fs::remove_all(dir, ec);
+      return send_error(res, 500, "storage_failed", e.what());
+    }
+    jobs_.wake();
+    const std::string base = "/api/v1/trials/" + t.id;
+    send_json(res, 202, {{"id", t.id}, {"status", t.status}, {"url", base}, {"events", base + "/events"}, {"results", base + "/results"}});
+  }
+
+  // The upload's parts are there and safely named; otherwise answers 400 and returns false.
+  static bool check_trial_parts(const httplib::Request& req, httplib::Response& res) {
+    if (!req.is_multipart_form_data()) {
+      send_error(res, 400, "bad_request", "expected multipart/form-data with a 'markers' part (.trc) or 'videos' parts");
+      return false;
+    }
     const auto video_parts = req.files.equal_range("videos");
     const bool footage = video_parts.first != video_parts.second;
-    if (!footage && !req.has_file("markers"))
-      return send_error(res, 400, "missing_part", "a 'markers' part (.trc), or 'videos' parts with 'calibration' and 'tags', is required", "markers");
-    if (footage && req.has_file("markers"))
-      return send_error(res, 400, "bad_request", "give either 'markers' or 'videos', not both", "markers");
+    if (!footage && !req.has_file("markers")) {
+      send_error(res, 400, "missing_part", "a 'markers' part (.trc), or 'videos' parts with 'calibration' and 'tags', is required", "markers");
+      return false;
+    }
+    if (footage && req.has_file("markers")) {
+      send_error(res, 400, "bad_request", "give either 'markers' or 'videos', not both", "markers");
+      return false;
+    }
     for (const char* p : {"calibration", "tags"})
-      if (footage && !req.has_file(p))
-        return send_error(res, 400, "missing_part", std::string("videos need a '") + p + "' part", p);
+      if (footage && !req.has_file(p)) {
+        send_error(res, 400, "missing_part", std::string("videos need a '") + p + "' part", p);
+        return false;
+      }
     for (const char* p : {"markers", "grf", "loads", "options", "calibration", "tags"})
-      if (req.has_file(p) && !req.get_file_value(p).filename.empty() && !is_safe_file_name(req.get_file_value(p).filename))
-        return send_error(res, 400, "bad_file_name", "unsafe file name '" + req.get_file_value(p).filename + "'", p);
+      if (req.has_file(p) && !req.get_file_value(p).filename.empty() && !is_safe_file_name(req.get_file_value(p).filename)) {
+        send_error(res, 400, "bad_file_name", "unsafe file name '" + req.get_file_value(p).filename + "'", p);
+        return false;
+      }
     for (auto it = video_parts.first; it != video_parts.second; ++it)
-      if (!is_safe_file_name(it->second.filename))
-        return send_error(res, 400, "bad_file_name", "unsafe or missing video file name '" + it->second.filename + "' (name each video after its camera)", "videos");
-    PipelineOptions options;
-    const std::string options_text = req.has_file("options") ? req.get_file_value("options").content : "";
-    try {
-      const json parsed = options_text.empty() ? json::object() : json::parse(options_text);
-      if (!parsed.is_object()) return send_error(res, 400, "malformed_json", "options: expected a JSON object", "options");
-    } catch (const json::parse_error& e) {
-      return send_error(res, 400, "malformed_json", std::string("options: ") + e.what(), "options");
-    }
-    try {
-      options = PipelineOptions::parse(options_text, "options");
-    } catch (const InputError& e) {
-      return send_input_error(res, e, "options");
-    }
-    if (options.model_id.empty()) return send_error(res, 422, "invalid_input", "options must name a model: {\"model\": \"<model id>\"}", "model");
-    if (!store_.model(options.model_id))
-      return send_error(res, 422, "unknown_model", "no model with id '" + options.model_id + "' (upload one to /api/v1/models)", "model");
-    if (!options.scale_muscles_from_id.empty() && !store_.model(options.scale_muscles_from_id))
-      return send_error(res, 422, "unknown_model", "no model with id '" + options.scale_muscles_from_id + "' (upload one to /api/v1/models)",
-                        "scale_muscles_from");
-    options.inputs = json::object();
+      if (!is_safe_file_name(it->second.filename)) {
+        send_error(res, 400, "bad_file_name", "unsafe or missing video file name '" + it->second.filename + "' (name each video after its camera)", "videos");
+        return false;
+      }
+    return true;
+  }
 
+  // The options part, parsed and checked against the models stored; otherwise answers and returns none.
+  std::optional<PipelineOptions> trial_options(const httplib::Request& req, httplib::Response& res) {
+    auto refuse = [&res](int status, const std::string& code, const std::string& message, const std::string& field) {
+      send_error(res, status, code, message, field);
+      return std::nullopt;
+    };
+    const std::string text = req.has_file("options") ? req.get_file_value("options").content : "";
+    try {
+      const json parsed = text.empty() ? json::object() : json::parse(text);
+      if (!parsed.is_object()) return refuse(400, "malformed_json", "options: expected a JSON object", "options");
+    } catch (const json::parse_error& e) {
+      return refuse(400, "malformed_json", std::string("options: ") + e.what(), "options");
+    }
+    std::optional<PipelineOptions> options;
+    try {
+      options = PipelineOptions::parse(text, "options");
+    } catch (const InputError& e) {
+      send_input_error(res, e, "options");
+      return std::nullopt;
+    }
+    if (options->model_id.empty()) return refuse(422, "invalid_input", "options must name a model: {\"model\": \"<model id>\"}", "model");
+    for (const auto& [field, id] : {std::pair<std::string, std::string>{"model", options->model_id}, {"scale_muscles_from", options->scale_muscles_from_id}})
+      if (!id.empty() && !store_.model(id))
+        return refuse(422, "unknown_model", "no model with id '" + id + "' (upload one to /api/v1/models)", field);
+    options->inputs = json::object();
+    return options;
+  }
+
+  TrialInputs trial_inputs(const httplib::Request& req, const PipelineOptions& options, bool footage) const {
     TrialInputs in;
     const std::string first_name = footage ? std::string("capture") : req.get_file_value("markers").filename;
     in.name = first_name.empty() ? "trial" : fs::path(first_name).stem().string();
@@ -241,71 +307,39 @@ class Api {
     if (req.has_file("loads")) in.loads = req.get_file_value("loads").content, in.loads_name = req.get_file_value("loads").filename;
     if (in.grf_name.empty()) in.grf_name = "grf";
     if (in.loads_name.empty()) in.loads_name = "loads";
+    return in;
+  }
 
-    // Everything is written into a temporary folder, validated there, and appears complete (rename).
-    TrialRecord t;
-    t.id = new_id();
-    const fs::path tmp = fs::path(o_.data_dir) / "trials" / (t.id + ".tmp"), dir = jobs_.trial_dir(t.id);
-    auto discard = [&] {
-      std::error_code ec;
-      fs::remove_all(tmp, ec);
-    };
-    try {
-      ensure_directory((tmp / "inputs").string());
-      if (footage) {
-        ensure_directory((tmp / "inputs" / "videos").string());
-        for (auto it = video_parts.first; it != video_parts.second; ++it)
-          write_text_atomic((tmp / "inputs" / "videos" / it->second.filename).string(), it->second.content);
-        const auto cal = req.get_file_value("calibration");
-        std::string ext = fs::path(cal.filename).extension().string();
-        if (ext != ".yml" && ext != ".yaml" && ext != ".xml") ext = ".json";
-        write_text_atomic((tmp / "inputs" / ("calibration" + ext)).string(), cal.content);
-        write_text_atomic((tmp / "inputs" / "tags.json").string(), req.get_file_value("tags").content);
-        load_footage_inputs((tmp / "inputs").string(), in);
-      } else {
-        write_text_atomic((tmp / "inputs" / "markers.trc").string(), in.markers);
-      }
-      if (!in.grf.empty()) {
-        write_text_atomic((tmp / "inputs" / "grf.mot").string(), in.grf);
-        write_text_atomic((tmp / "inputs" / "loads.xml").string(), in.loads);
-      }
-    } catch (const std::exception& e) {
-      discard();
-      return send_error(res, 500, "storage_failed", e.what());
+  // The uploaded files under inputs/ (where the worker reads them); footage paths are filled into `in`.
+  static void save_trial_inputs(const httplib::Request& req, const fs::path& inputs, TrialInputs& in, bool footage) {
+    ensure_directory(inputs.string());
+    if (footage) {
+      ensure_directory((inputs / "videos").string());
+      const auto video_parts = req.files.equal_range("videos");
+      for (auto it = video_parts.first; it != video_parts.second; ++it)
+        write_text_atomic((inputs / "videos" / it->second.filename).string(), it->second.content);
+      const auto cal = req.get_file_value("calibration");
+      std::string ext = fs::path(cal.filename).extension().string();
+      if (ext != ".yml" && ext != ".yaml" && ext != ".xml") ext = ".json";
+      write_text_atomic((inputs / ("calibration" + ext)).string(), cal.content);
+      write_text_atomic((inputs / "tags.json").string(), req.get_file_value("tags").content);
+      load_footage_inputs(inputs.string(), in);
+    } else {
+      write_text_atomic((inputs / "markers.trc").string(), in.markers);
     }
-    try {
-      validate_inputs(in, options);
-    } catch (const InputError& e) {
-      discard();
-      std::string part = footage ? "videos" : "markers";
-      const std::string file = e.file();
-      if (file == in.grf_name) part = "grf";
-      if (file == in.loads_name) part = "loads";
-      if (footage && file == in.calibration_path) part = "calibration";
-      if (footage && file == in.tags_path) part = "tags";
-      // Errors name the uploaded file, not where the server keeps it.
-      const std::string shown = fs::path(file).filename().string();
-      return send_input_error(res, InputError(shown, e.line(), e.field(), e.message()), part);
+    if (!in.grf.empty()) {
+      write_text_atomic((inputs / "grf.mot").string(), in.grf);
+      write_text_atomic((inputs / "loads.xml").string(), in.loads);
     }
-    t.name = in.name;
-    t.status = "queued";
-    t.created_at = t.updated_at = now_iso8601();
-    t.options = options.to_json();
-    if (footage) t.stages.push_back({"capture", "pending", 0, 0, json::object()});
-    for (const auto& s : kStages)
-      t.stages.push_back({s, options.wants(s) ? "pending" : "skipped", 0, 0, json::object()});
-    try {
-      fs::rename(tmp, dir);
-      store_.insert_trial(t);
-    } catch (const std::exception& e) {
-      discard();
-      std::error_code ec;
-      fs::remove_all(dir, ec);
-      return send_error(res, 500, "storage_failed", e.what());
-    }
-    jobs_.wake();
-    const std::string base = "/api/v1/trials/" + t.id;
-    send_json(res, 202, {{"id", t.id}, {"status", t.status}, {"url", base}, {"events", base + "/events"}, {"results", base + "/results"}});
+  }
+
+  // Which upload part a validation error is about.
+  static std::string uploaded_part(const std::string& file, const TrialInputs& in, bool footage) {
+    if (file == in.grf_name) return "grf";
+    if (file == in.loads_name) return "loads";
+    if (footage && file == in.calibration_path) return "calibration";
+    if (footage && file == in.tags_path) return "tags";
+    return footage ? "videos" : "markers";
   }
 
   void list_trials(const httplib::Request& req, httplib::Response& res) {
@@ -408,14 +442,18 @@ class Api {
   void results(const std::string& id, const std::string& stage, httplib::Response& res) {
     auto t = find(id, res);
     if (!t) return;
-    const auto it = kStageFiles.find(stage);
-    if (it == kStageFiles.end()) return send_error(res, 404, "unknown_stage", "stages are capture, ik, id, so and cpg", "stage");
+    const Stage* known = find_stage(stage);
+    if (!known) {
+      std::string names;
+      for (const Stage* s : pipeline_stages()) names += (names.empty() ? "" : ", ") + s->name();
+      return send_error(res, 404, "unknown_stage", "stages are " + names, "stage");
+    }
     const auto s = std::find_if(t->stages.begin(), t->stages.end(), [&](const StageRecord& r) { return r.name == stage; });
     if (s == t->stages.end() || s->state != "done")
       return send_error(res, 409, "not_ready", "stage '" + stage + "' is " + (s == t->stages.end() ? "absent" : s->state), "stage");
     json tables = json::array();
     try {
-      for (const auto& suffix : it->second) {
+      for (const auto& suffix : known->tables()) {
         const std::string file = t->name + suffix;
         tables.push_back(table_json(file, read_storage((result_dir(*t) / file).string())));
       }

@@ -17,6 +17,7 @@
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/fixtures/tag_footage.h"
 #include "cpgait/model/osim_reader.h"
+#include "json_schema_check.h"
 #include "server_process.h"
 #include "test_support.h"
 
@@ -167,6 +168,12 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
     ASSERT_EQ(f->status, 200) << name;
     EXPECT_EQ(f->body, slurp(dir + "/cli/" + name)) << name << " differs between the service and cpgait run";
   }
+  // The service's job.json follows the schema it publishes.
+  const json schema = body(c.Get("/api/v1/options/schema"));
+  auto job = c.Get(("/api/v1/trials/" + id + "/files/job.json").c_str());
+  ASSERT_EQ(job->status, 200);
+  const auto violations = cpgait::testing::schema_violations(schema, json::parse(job->body));
+  EXPECT_TRUE(violations.empty()) << violations.front();
   // job.json alone reproduces the run.
   ASSERT_EQ(run_cli("run --options " + dir + "/cli/job.json -o " + dir + "/cli2"), 0);
   for (const auto& suffix : kResultSuffixes)
@@ -277,6 +284,8 @@ TEST(Api, BadInputMatrix) {
       {"truncated TRC", trial_form(trc.substr(0, trc.size() / 2), "a.trc", walker), 422, "invalid_input", "", 0},
       {"malformed options JSON", trial_form(trc, "a.trc", json()), 400, "malformed_json", "options", 0},
       {"unknown option", trial_form(trc, "a.trc", {{"model", "walker"}, {"ik", {{"bound", "all"}}}}), 422, "invalid_input", "ik.bound", 0},
+      {"mistyped option", trial_form(trc, "a.trc", {{"model", "walker"}, {"so", {{"activation_exponent", "two"}}}}), 422, "invalid_input",
+       "so.activation_exponent", 0},
       {"unknown model", trial_form(trc, "a.trc", {{"model", "nope"}}), 422, "unknown_model", "model", 0},
       {"no model", trial_form(trc, "a.trc", json::object()), 422, "invalid_input", "model", 0},
       {"path traversal", trial_form(trc, "../../etc/passwd", walker), 400, "bad_file_name", "markers", 0},
@@ -336,6 +345,48 @@ TEST(Api, BadInputMatrix) {
   EXPECT_EQ(body(c.Get("/api/v1/models"))["models"].size(), 1u);  // only the built-in
   // The server survived all of it.
   EXPECT_EQ(c.Get("/healthz")->status, 200);
+  fs::remove_all(dir);
+}
+
+// The stage table and the options schema, published; a trial's stages and job.json follow them.
+TEST(Api, PublishesItsStagesAndTheOptionsSchemaJobJsonFollows) {
+  const std::string dir = cpgait::refdata::temp_dir("api_schema");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  const json stages = body(c.Get("/api/v1/stages"))["stages"];
+  std::vector<std::string> names, selectable;
+  for (const auto& s : stages) {
+    names.push_back(s["name"]);
+    if (s["selectable"].get<bool>()) selectable.push_back(s["name"]);
+    EXPECT_TRUE(s["needs"].is_array() && s["writes"].is_array() && !s["writes"].empty()) << s.dump();
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"capture", "ik", "id", "so", "cpg", "gait"}));
+  auto schema_response = c.Get("/api/v1/options/schema");
+  ASSERT_EQ(schema_response->status, 200);
+  const json schema = json::parse(schema_response->body);
+  EXPECT_EQ(schema["properties"]["stages"]["items"]["enum"], json(selectable));
+  // The CLI publishes the same schema.
+  const std::string cli_schema = dir + "/schema.json";
+  ASSERT_EQ(std::system((std::string(CPGAIT_BINARY) + " run --print-options-schema > " + cli_schema).c_str()), 0);
+  EXPECT_EQ(json::parse(slurp(cli_schema)), schema);
+
+  const json options = {{"model", "walker"}, {"stages", {"ik", "id"}}, {"id", {{"lowpass_cutoff_hz", 4}}}};
+  const std::string id = body(c.Post("/api/v1/trials", trial_form(synthetic_trc(0.3), "s.trc", options)))["id"];
+  ASSERT_EQ(wait_finished(c, id, 60), "done");
+  const json trial = body(c.Get(("/api/v1/trials/" + id).c_str()));
+  std::vector<std::string> trial_stages;
+  for (const auto& s : trial["stages"]) trial_stages.push_back(s["name"]);
+  EXPECT_EQ(trial_stages, std::vector<std::string>(names.begin() + 1, names.end()));  // no footage: no capture stage
+  EXPECT_EQ(trial["stages"][1]["state"], "done");
+  EXPECT_EQ(trial["stages"][2]["state"], "skipped");
+  const json job = json::parse(c.Get(("/api/v1/trials/" + id + "/files/job.json").c_str())->body);
+  EXPECT_EQ(job["id"]["lowpass_cutoff_hz"], 4.0);
+  const auto violations = cpgait::testing::schema_violations(schema, job);
+  EXPECT_TRUE(violations.empty()) << violations.front();
+  // The checker is not vacuous: a mistyped field breaks the schema.
+  json broken = job;
+  broken["id"]["lowpass_cutoff_hz"] = "4";
+  EXPECT_EQ(cpgait::testing::schema_violations(schema, broken).size(), 1u);
   fs::remove_all(dir);
 }
 

@@ -88,6 +88,29 @@ try {
     await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-upload-error.png') });
   });
 
+  await check('the upload form\'s stages and options follow the API (stages, options schema)', async () => {
+    await page.goto(`${base}/#/upload`);
+    await page.locator('#stage-options').waitFor({ state: 'attached' });
+    const stages = (await (await page.request.get(`${base}/api/v1/stages`)).json()).stages;
+    const schema = await (await page.request.get(`${base}/api/v1/options/schema`)).json();
+    const boxes = await page.locator('input[name=stage]').evaluateAll((b) => b.map((x) => x.value));
+    assert.deepEqual(boxes, stages.filter((s) => s.selectable).map((s) => s.name));
+    let fields = 0;
+    for (const s of stages) {
+      for (const [key, f] of Object.entries(schema.properties[s.name].properties)) {
+        if (f.type === 'object') continue;  // IK task weights: not a form field
+        const shown = await page.locator(`#opt-${s.name}-${key}`).evaluate((e) => (e.type === 'checkbox' ? e.checked
+          : e.tagName === 'SELECT' ? e.value : e.placeholder));
+        assert.equal(String(shown), String(f.default ?? ''), `${s.name}.${key}`);
+        fields++;
+      }
+    }
+    assert.ok(fields >= 15, `only ${fields} option fields`);
+    await page.click('#stage-options summary');
+    await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-upload-options.png'), fullPage: true });
+    await page.click('#stage-options summary');
+  });
+
   let trialId;
   await check('upload a trial and watch it complete', async () => {
     if (model) {
@@ -100,11 +123,20 @@ try {
     await page.setInputFiles('#markers', trc);
     if (grf) { await page.setInputFiles('#grf', grf); await page.setInputFiles('#loads', loads); }
     if (haveShared) { await page.fill('#t0', '0.5'); await page.fill('#t1', '2.5'); }
+    await page.click('#stage-options summary');
+    await page.fill('#opt-capture-decimate', '2');  // no effect on a TRC trial, but kept in job.json
     await page.click('#upload button[type=submit]');
     await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
     trialId = page.url().match(/trial\/([0-9a-f]{16})/)[1];
     await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 120000 });
     assert.equal(await page.locator('h1 .status').textContent(), 'done');
+  });
+
+  await check('an option changed in the form reaches job.json, the others keep their defaults', async () => {
+    const job = await (await page.request.get(`${base}/api/v1/trials/${trialId}/files/job.json`)).json();
+    assert.equal(job.capture.decimate, 2);
+    assert.equal(job.so.activation_exponent, 2);
+    assert.deepEqual(job.stages, ['ik', 'id', 'so', 'cpg', 'gait']);
   });
 
   await check('trial list shows the trial with its status and metrics', async () => {

@@ -106,9 +106,58 @@ async function listView() {
 }
 
 // ---------------------------------------------------------------- upload
+// One input per option of the published schema (GET /api/v1/options/schema), showing its default.
+function optionInput(stage, key, field) {
+  const id = `opt-${stage}-${key}`;
+  const common = { id, 'data-stage': stage, 'data-key': key, 'data-type': field.type, title: field.description };
+  if (field.enum) return h('select', common, field.enum.map((v) => h('option', { value: v, selected: v === field.default }, v)));
+  if (field.type === 'boolean') return h('input', Object.assign({ type: 'checkbox', checked: field.default === true }, common));
+  if (field.type === 'number' || field.type === 'integer') {
+    return h('input', Object.assign({ type: 'number', step: field.type === 'integer' ? 1 : 'any', placeholder: field.default ?? '',
+      min: field.minimum, max: field.maximum }, common));
+  }
+  if (field.type === 'string') return h('input', Object.assign({ type: 'text', placeholder: field.default ?? '' }, common));
+  return null;  // objects (IK task weights) come from files, not the form
+}
+function optionsSection(schema, stages, row) {
+  if (!schema) return h('p', { class: 'muted' }, 'The options schema could not be loaded: every stage runs with its defaults.');
+  // In run order when the stage list is known.
+  const order = stages.length ? stages.map((s) => s.name) : Object.keys(schema.properties);
+  const stageNames = order.filter((k) => schema.properties[k] && schema.properties[k].properties);
+  return h('details', { id: 'stage-options' }, h('summary', {}, 'Stage options'),
+    stageNames.map((stage) => {
+      const fields = Object.entries(schema.properties[stage].properties)
+        .map(([key, f]) => [key, f, optionInput(stage, key, f)]).filter(([, , input]) => input);
+      return h('fieldset', { 'data-stage': stage }, h('legend', { title: schema.properties[stage].description }, stage),
+        fields.map(([key, f, input]) => {
+          const r = row(`${key}${f['x-unit'] ? ` (${f['x-unit']})` : ''}`, input, `${stage}.${key}`);
+          r.querySelector('label').htmlFor = input.id;
+          return r;
+        }));
+    }));
+}
+// The options a person changed from their defaults, as {stage: {key: value}}.
+function changedOptions(form) {
+  const out = {};
+  for (const input of form.querySelectorAll('[data-stage][data-key]')) {
+    const { stage, key, type } = input.dataset;
+    let value;
+    if (type === 'boolean') value = input.checked;
+    else if (input.tagName === 'SELECT') value = input.value;
+    else if (input.value === '') continue;
+    else value = type === 'number' || type === 'integer' ? Number(input.value) : input.value;
+    const dflt = input.tagName === 'SELECT' ? input.querySelector('option[selected]')?.value : type === 'boolean' ? input.defaultChecked : undefined;
+    if (dflt !== undefined && value === dflt) continue;
+    (out[stage] ??= {})[key] = value;
+  }
+  return out;
+}
+
 async function uploadView() {
-  let models = [];
+  let models = [], stages = [], schema = null;
   try { models = (await api('/models')).models; } catch (e) { /* shown below */ }
+  try { stages = (await api('/stages')).stages; } catch (e) { /* no stage choice: every stage runs */ }
+  try { schema = await api('/options/schema'); } catch (e) { /* said in the form */ }
   const fieldError = (name) => h('div', { class: 'field-error', 'data-error-for': name });
   const row = (label, input, name) => h('div', { class: 'row' }, h('label', { for: name }, label), input, fieldError(name));
   const form = h('form', { id: 'upload' },
@@ -124,7 +173,8 @@ async function uploadView() {
       h('option', { value: '' }, 'as in the model'),
       models.map((m) => h('option', { value: m.id }, `${m.name} (the generic model it was scaled from)`))), 'scale_muscles_from'),
     row('Time range (s)', h('span', {}, h('input', { type: 'number', step: 'any', id: 't0', placeholder: 'start' }), ' – ', h('input', { type: 'number', step: 'any', id: 't1', placeholder: 'end' })), 'time_range'),
-    row('Stages', h('span', {}, ['ik', 'id', 'so', 'cpg', 'gait'].map((s) => h('label', {}, h('input', { type: 'checkbox', name: 'stage', value: s, checked: true }), ` ${s.toUpperCase()} `))), 'stages'),
+    row('Stages', h('span', {}, stages.filter((s) => s.selectable).map((s) => h('label', { title: s.description }, h('input', { type: 'checkbox', name: 'stage', value: s.name, checked: true }), ` ${s.name.toUpperCase()} `))), 'stages'),
+    optionsSection(schema, stages, row),
     h('div', { class: 'form-error', id: 'form-error' }),
     h('button', { type: 'submit' }, 'Upload and run'));
   const modelUpload = h('form', { id: 'model-upload' },
@@ -152,13 +202,16 @@ async function uploadView() {
     if (generic) options.scale_muscles_from = generic;
     const t0 = form.querySelector('#t0').value, t1 = form.querySelector('#t1').value;
     if (t0 !== '' && t1 !== '') options.time_range = [Number(t0), Number(t1)];
-    options.stages = [...form.querySelectorAll('input[name=stage]:checked')].map((c) => c.value);
+    if (stages.length) options.stages = [...form.querySelectorAll('input[name=stage]:checked')].map((c) => c.value);
+    Object.assign(options, changedOptions(form));
     fd.append('options', new Blob([JSON.stringify(options)], { type: 'application/json' }), 'options.json');
     try {
       const r = await api('/trials', { method: 'POST', body: fd });
       location.hash = `#/trial/${r.id}`;
     } catch (err) {
-      showError(form, err, (d) => (['markers', 'grf', 'loads', 'videos', 'calibration', 'tags'].includes(d.part) ? d.part : ['model', 'scale_muscles_from', 'time_range', 'stages', 'videos', 'calibration', 'tags'].includes(d.field) ? d.field : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
+      showError(form, err, (d) => (['markers', 'grf', 'loads', 'videos', 'calibration', 'tags'].includes(d.part) ? d.part
+        : d.field && form.querySelector(`[data-error-for="${CSS.escape(d.field)}"]`) ? d.field
+        : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
     }
   });
   modelUpload.addEventListener('submit', async (ev) => {

@@ -1,0 +1,84 @@
+// The reproduced gait: the fitted CPG drives the muscles on contact spheres fitted to the trial's feet.
+#include "cpgait/dynamics/contact.h"
+#include "cpgait/gait/reproduced_gait.h"
+#include "products.h"
+#include "stage.h"
+
+namespace cpgait::services {
+namespace {
+
+struct GaitStageOptions {
+  std::optional<double> duration_s;
+  bool residuals = true;
+
+  static const OptionFields<GaitStageOptions>& fields() {
+    static const OptionFields<GaitStageOptions> f =
+        OptionFields<GaitStageOptions>(
+            "Begins at the first heel strike, or earlier when the trial would end first; needs the cpg stage's fit.")
+            .optional_number("duration_s", &GaitStageOptions::duration_s, "s",
+                             "simulated time; absent: two gait cycles, or what the trial has", NumberRange{0.0, 30.0, true})
+            .boolean("residuals", &GaitStageOptions::residuals,
+                     "pelvis residual actuators hold the rotations and soft springs the translations; false: the model walks on its own");
+    return f;
+  }
+};
+
+class GaitStage final : public StageWithOptions<GaitStageOptions> {
+ public:
+  std::string name() const override { return "gait"; }
+  std::string description() const override { return "reproduced gait: the CPG-driven muscles walk the model on contact spheres"; }
+  std::vector<std::string> needs() const override { return {"cpg"}; }
+  std::vector<std::string> writes() const override {
+    return {"_gait.mot", "_gait_residuals.sto", "_gait_contact_forces.sto", "_gait.json"};
+  }
+  std::vector<std::string> tables() const override { return {"_gait.mot", "_gait_residuals.sto"}; }
+
+ protected:
+  nlohmann::json execute(StageContext& trial, const GaitStageOptions& o) const override {
+    const IkProduct& ik = *trial.products.find<IkProduct>();
+    const FittedCpg* cpg = trial.products.find<FittedCpg>();
+    if (!cpg) return {{"not_run", "no CPG was fitted in this run (see the cpg stage)"}};
+    const Model& model = trial.model;
+    ContactSet feet = default_foot_contacts(model);
+    if (feet.spheres.empty()) return {{"not_run", "the model has no calcn_/toes_ or foot_ bodies for contact spheres"}};
+    // The simulation begins at the first heel strike whose phase lies in the trial, or earlier when
+    // the trial would end first.
+    const double cycle_s = cpg->model.cycle_s;
+    double start = -1;
+    for (double s : cpg->heel_strikes_s)
+      if (!ik.time_s.empty() && s + cpg->model.phase_at_start * cycle_s >= ik.time_s.front()) {
+        start = s;
+        break;
+      }
+    const double available = ik.time_s.empty() ? 0 : ik.time_s.back() - ik.time_s.front();
+    if (start < 0 || available < 0.5 * cycle_s)
+      return {{"not_run", "the trial is shorter than half a gait cycle, or has no usable heel strike"}};
+
+    const Storage reference = make_storage("ik", coordinate_names(model), ik.time_s, ik.q, false);
+    const FootSphereFit fit = fit_foot_spheres_to_trial(model, feet, ik.time_s, ik.q);
+    ReproducedGaitOptions go;
+    go.start_time_s = start;
+    go.duration_s = o.duration_s ? *o.duration_s : std::min(2 * cycle_s, available);
+    go.pelvis_residuals = o.residuals;
+    const ReproducedGaitResult g = reproduce_gait(model, cpg->model, reference, feet, go, trial.progress);
+    trial.write(reproduced_gait_motion_table(model, g), "_gait.mot");
+    trial.write(reproduced_gait_residual_table(g), "_gait_residuals.sto");
+    trial.write(reproduced_gait_contact_table(g), "_gait_contact_forces.sto");
+    nlohmann::json summary = reproduced_gait_metrics(model, g);
+    nlohmann::json radius = nlohmann::json::object();
+    for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;
+    summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
+    summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
+    trial.write_text(summary.dump(2) + "\n", "_gait.json");
+    return summary;
+  }
+};
+
+}  // namespace
+
+const Stage& gait_stage() {
+  static const GaitStage stage;
+  return stage;
+}
+
+}  // namespace cpgait::services

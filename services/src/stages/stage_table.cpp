@@ -1,0 +1,20 @@
+// cpgait's pipeline: its stages in run order. A new stage is its own file and one line here.
+#include "stage.h"
+
+namespace cpgait::services {
+
+const Stage& capture_stage();
+const Stage& ik_stage();
+const Stage& id_stage();
+const Stage& so_stage();
+const Stage& cpg_stage();
+const Stage& gait_stage();
+
+const StageTable& pipeline_stages() {
+  static const StageTable table = {
+      &capture_stage(), &ik_stage(), &id_stage(), &so_stage(), &cpg_stage(), &gait_stage(),
+  };
+  return table;
+}
+
+}  // namespace cpgait::services
