@@ -87,7 +87,8 @@ VersusOpenSim compare_with_opensim(const Model& m, const ComputedMuscleControlRe
     v.rms_scaled.push_back({co.name, rms[c] * scale});
     v.rms_opensim.push_back(theirs * scale);
   }
-  std::printf("[ info ] %s: coordinates tracked less closely than OpenSim: %d of %d\n", label, v.coordinates_worse, m.num_coordinates());
+  std::printf("[ info ] %s: coordinates tracked less closely than OpenSim: %d of %d (held by the caller)\n", label, v.coordinates_worse,
+              m.num_coordinates());
 
   // 2. Average residuals next to OpenSim's.
   std::ifstream f(ref + "avgResiduals.txt");
@@ -100,7 +101,12 @@ VersusOpenSim compare_with_opensim(const Model& m, const ComputedMuscleControlRe
     const double theirs = std::stod(text.str().substr(p + name.size() + 11));
     std::printf("[ info ] %s: average residual %s ours %8.3f  OpenSim %8.3f %s\n", label, name.c_str(), value, theirs,
                 std::abs(value) <= std::abs(theirs) ? "" : "(larger)");
-    EXPECT_LT(std::abs(value), 25.0) << name << ": an average residual this large means the dynamics disagree";
+    // The GUIDE's target is "no larger than OpenSim's". Forces and MY meet it within 0.1 (measured
+    // within 0.06 of OpenSim's on every variant): held there. MX and MZ are a known gap against
+    // OpenSim 2.x's run (measured -4.45 against -1.41 and 10.12 against -2.36 N m on every variant):
+    // held at regression bounds of 6 and 12.5 N m instead.
+    const double bound = name == "MX" ? 6.0 : name == "MZ" ? 12.5 : std::abs(theirs) + 0.1;
+    EXPECT_LE(std::abs(value), bound) << label << ": average residual " << name;
   }
 
   // 3. Muscle forces against OpenSim's, for muscles whose reference peak exceeds 10 % of max force.
@@ -125,11 +131,12 @@ VersusOpenSim compare_with_opensim(const Model& m, const ComputedMuscleControlRe
   }
   std::sort(v.correlations.begin(), v.correlations.end());
   v.correlated = std::count_if(v.correlations.begin(), v.correlations.end(), [](const auto& c) { return c.first >= 0.9; });
-  std::printf("[ info ] %s: muscle force correlation with OpenSim >= 0.9: %ld of %zu (reference peak > 10%% of max force)\n", label,
-              v.correlated, v.correlations.size());
+  std::printf("[ info ] %s: muscle force correlation with OpenSim >= 0.9: %ld of %zu (reference peak > 10%% of max force; held by the caller)\n",
+              label, v.correlated, v.correlations.size());
+  EXPECT_EQ(v.correlations.size(), 86u) << "muscles whose reference peak exceeds 10 % of max force";
   for (std::size_t i = 0; i < std::min<std::size_t>(5, v.correlations.size()); ++i)
-    std::printf("[ info ] %s: lowest force correlation %zu: %-12s r = %.3f\n", label, i + 1, v.correlations[i].second.c_str(),
-                v.correlations[i].first);
+    std::printf("[ info ] %s: not asserted (diagnostic, the count above is): lowest force correlation %zu: %-12s r = %.3f\n", label, i + 1,
+                v.correlations[i].second.c_str(), v.correlations[i].first);
   return v;
 }
 
@@ -145,7 +152,11 @@ ComputedMuscleControlResult run_subject01(const Model& m, const Subject01Cmc& in
 
 }  // namespace
 
-TEST(CmcGait2392, TracksLikeOpenSimWithMeasuredLoads) {
+// The issue's tracking bound on the shipped model. Against OpenSim's published run (OpenSim 2.x, on a
+// model no shipped file reproduces) this is a known gap: every coordinate is tracked less closely than
+// OpenSim's (23 of 23, measured), and only 9 of 86 muscle forces correlate (the unscaled muscles: see
+// the next test). Both are reported; the gap itself is issue 23's (OpenSim 4's CMC reference).
+TEST(CmcGait2392, TracksWithinOneDegreeWithMeasuredLoads) {
   const std::string pl = refdata::gait2392("pipeline/");
   const std::string ref = pl + "OutputReference/ResultsCMC/subject01_walk1_";
   for (const auto& p : {pl + "subject01_Setup_CMC.xml", ref + "pErr.sto", ref + "Actuation_force.sto", ref + "avgResiduals.txt"})
@@ -157,13 +168,17 @@ TEST(CmcGait2392, TracksLikeOpenSimWithMeasuredLoads) {
   EXPECT_EQ(r.summary.external_forces, "measured loads");
   EXPECT_EQ(r.summary.windows_infeasible, 0);
   const VersusOpenSim v = compare_with_opensim(m, r, ref, "shipped model");
-  // The issue's bound: under 1 deg for rotations and 1 cm for translations; the mtp angles, where
-  // OpenSim's own run is ~5 deg off, are reported next to OpenSim's, not held to it.
+  // The issue's bound: under 1 deg for rotations and 1 cm for translations (worst measured 0.79 deg,
+  // ankle_angle_r). The mtp angles, where OpenSim's own run is ~5 deg off, are held to a regression
+  // bound of 12 deg (measured 7.7 and 9.1 deg).
   for (const auto& [name, value] : v.rms_scaled) {
     if (name.rfind("mtp_", 0) != 0) {
       EXPECT_LT(value, 1.0) << name << " (deg or cm)";
+    } else {
+      EXPECT_LT(value, 12.0) << name << " (deg): regression bound";
     }
   }
+  std::printf("[ info ] not asserted: the 23 of 23 coordinates and 9 of 86 forces against OpenSim 2.x's run (known gap, see above)\n");
 }
 
 // The shipped subject01 models carry gait2392's generic muscle fibre and tendon lengths on scaled
@@ -194,6 +209,8 @@ TEST(CmcGait2392, MuscleForcesWithMusclesScaledAsOpenSimScales) {
   std::printf("[ info ] scaled muscles: median force correlation %.3f\n", median);
   EXPECT_GE(v.correlated, 30);
   EXPECT_GT(median, 0.8);
+  std::printf("[ info ] not asserted: scaled muscles' %d of 23 coordinates tracked less closely than OpenSim 2.x's run (known gap)\n",
+              v.coordinates_worse);
 
   // With the residual and reserve actuators re-solved every millisecond (ComputedMuscleControlOptions::
   // refresh_actuators, not OpenSim's scheme): every coordinate but mtp within the issue's 1 deg / 1 cm,
@@ -201,6 +218,10 @@ TEST(CmcGait2392, MuscleForcesWithMusclesScaledAsOpenSimScales) {
   const ComputedMuscleControlResult rr = run_subject01(m, in, pl, true);
   std::printf("[ info ] scaled muscles, refreshed actuators: %s\n", rr.summary.BriefReport().c_str());
   const VersusOpenSim vr = compare_with_opensim(m, rr, ref, "scaled muscles, refreshed actuators");
+  // Measured 46 of 86 correlated and 19 of 23 coordinates tracked less closely than OpenSim's: held
+  // at regression bounds of 38 and 21 (the counts move by a few with rounding-level changes).
+  EXPECT_GE(vr.correlated, 38);
+  EXPECT_LE(vr.coordinates_worse, 21);
   for (std::size_t c = 0; c < vr.rms_scaled.size(); ++c) {
     const auto& [name, value] = vr.rms_scaled[c];
     if (name.rfind("mtp_", 0) == 0) {
@@ -212,7 +233,11 @@ TEST(CmcGait2392, MuscleForcesWithMusclesScaledAsOpenSimScales) {
 }
 
 // Acceptance 4: the same trial without force plates, on the default contact spheres (two per foot),
-// the ground placed under the recorded feet. Reported; held only to staying on the path.
+// the ground placed under the recorded feet. A known gap: the spheres carry little of the weight in
+// CMC, so the pelvis residual FY carries most of it (measured 663 N of the subject's ~706 N) and every
+// window's residuals exceed their constraints (149 of 149). Held: the tracking (target 3 deg, worst
+// measured 1.66), and regression bounds on FY (700 N) and the mtp angles (measured 7.5 and 15.2 deg,
+// bound 20 deg); the other residuals are reported, not asserted (they follow from FY's gap).
 TEST(CmcGait2392, WithoutGrfOnContactSpheres) {
   const std::string pl = refdata::gait2392("pipeline/");
   REQUIRE_REFERENCE(pl + "gait2392_CMC_Tasks.xml");
@@ -237,6 +262,12 @@ TEST(CmcGait2392, WithoutGrfOnContactSpheres) {
   std::printf("[ info ] no GRF: worst rotational tracking error (mtp aside) %s %.3f deg; mtp_r %.2f, mtp_l %.2f deg\n",
               worst_name.c_str(), worst * 180 / M_PI, rms[m.coordinate_index("mtp_angle_r")] * 180 / M_PI,
               rms[m.coordinate_index("mtp_angle_l")] * 180 / M_PI);
-  for (const auto& [name, value] : r.average_residuals()) std::printf("[ info ] no GRF: average residual %s %8.2f\n", name.c_str(), value);
+  for (const auto& [name, value] : r.average_residuals()) {
+    std::printf("[ info ] no GRF: average residual %s %8.2f%s\n", name.c_str(), value, name == "FY" ? "" : " (not asserted: see above)");
+    if (name == "FY") EXPECT_LT(std::abs(value), 700.0) << "N: regression bound";
+  }
   EXPECT_LT(worst * 180 / M_PI, 3.0) << worst_name;
+  for (const char* mtp : {"mtp_angle_r", "mtp_angle_l"}) EXPECT_LT(rms[m.coordinate_index(mtp)] * 180 / M_PI, 20.0) << mtp << ": regression bound";
+  std::printf("[ info ] no GRF: windows with residuals beyond their constraints %d of %d (not asserted: the known gap above)\n",
+              r.summary.windows_residuals_unbounded, r.summary.windows);
 }

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <limits>
 
 #include "cpgait/capture/ik_setup.h"
 #include "cpgait/capture/storage.h"
@@ -40,8 +41,11 @@ Eigen::VectorXd reference_pose(const Model& m, const Storage& ref, double t) {
   int row = -1;
   for (int r = 0; r < ref.num_rows(); ++r)
     if (std::abs(ref.time()[r] - t) < 1e-6) row = r;
-  EXPECT_GE(row, 0) << "no reference row at t=" << t;
   Eigen::VectorXd q(m.num_coordinates());
+  if (row < 0) {  // NaN fails every comparison made with it
+    ADD_FAILURE() << "no reference row at t=" << t;
+    return q.setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
   for (int c = 0; c < m.num_coordinates(); ++c)
     q[c] = ref.data(row, ref.column(m.coordinates[c].name)) * (m.coordinates[c].is_angle() ? M_PI / 180 : 1.0);
   return q;
@@ -69,6 +73,7 @@ TEST(IkGait2392, ObjectiveNoWorseThanOpenSimsPoseAtEveryFrame) {
     int frame = -1;
     for (int f = 0; f < c.trial.num_frames(); ++f)
       if (c.trial.time_s[f] == t) frame = f;
+    ASSERT_GE(frame, 0) << "no trial frame at t=" << t;
     const Eigen::VectorXd q_ref = reference_pose(c.model, ref, t);
     const double theirs = ik_objective(c.model, targets, c.trial, frame, q_ref);
     const double ours = ik_objective(c.model, targets, c.trial, frame, c.result.q.row(i).transpose());
@@ -87,13 +92,15 @@ TEST(IkGait2392, ObjectiveNoWorseThanOpenSimsPoseAtEveryFrame) {
     ours_rms_max = std::max(ours_rms_max, c.result.marker_rms_m[i]);
   }
   const int n = static_cast<int>(c.result.q.rows());
+  // Not asserted beyond the target: the objective is OpenSim's optimum to 1e-8 already (ratio measured 0.99999999).
   std::printf("[ info ] objective ours/OpenSim's: worst frame %.8f\n", worst_ratio);
   std::printf("[ info ] marker RMS mm: ours mean %.3f max %.3f; OpenSim pose mean %.3f max %.3f\n",
               1e3 * ours_rms_sum / n, 1e3 * ours_rms_max, 1e3 * theirs_rms_sum / n, 1e3 * theirs_rms_max);
 }
 
 // Acceptance 2: rotational coordinates within 1 deg RMS of OpenSim's reference, pelvis translations
-// within 2 mm RMS.
+// within 2 mm RMS (the targets); regression bounds 0.03 deg and 0.012 mm, about 5x the worst figures
+// measured when they were set (knee_angle_l 0.0062 deg, pelvis_tx/ty 0.0023 mm).
 TEST(IkGait2392, CoordinatesMatchOpenSimsReference) {
   REQUIRE_GAIT2392();
   const Case& c = solved();
@@ -107,18 +114,19 @@ TEST(IkGait2392, CoordinatesMatchOpenSimsReference) {
     }
     const double rms = std::sqrt(sum2 / c.result.q.rows());
     if (co.is_angle()) {
-      EXPECT_LT(rms * 180 / M_PI, 1.0) << co.name;
+      EXPECT_TRUE(refdata::within_target_and_regression(rms * 180 / M_PI, 1.0, 0.03)) << co.name << " (deg)";
       std::printf("[ info ] %-18s RMS difference %.4f deg\n", co.name.c_str(), rms * 180 / M_PI);
     } else {
-      EXPECT_LT(rms, 0.002) << co.name;
+      EXPECT_TRUE(refdata::within_target_and_regression(rms * 1e3, 2.0, 0.012)) << co.name << " (mm)";
       std::printf("[ info ] %-18s RMS difference %.4f mm\n", co.name.c_str(), rms * 1e3);
     }
   }
 }
 
-// OpenSim 4.1 run here on the same files wrote its per-frame marker errors: ours must be no larger
-// (same model, same weights; a better optimum can only lower the weighted sum, and the unweighted RMS
-// follows it closely).
+// OpenSim 4.1 run here on the same files wrote its per-frame marker errors. These are unweighted RMS,
+// while both solvers minimise the weighted sum, so ours may lie on either side of OpenSim's (the weighted
+// objective is held one-sided against OpenSim's pose above). Held both ways: within 0.2 mm (the target)
+// and 0.06 mm (the regression bound, 4x the 0.015 mm measured either way when it was set).
 TEST(IkGait2392, MarkerErrorsMatchOpenSim41PerFrame) {
   REQUIRE_GAIT2392();
   const std::string path = refdata::shared_path("opensim41-here/IK/subject01_ik_marker_errors.sto");
@@ -126,11 +134,17 @@ TEST(IkGait2392, MarkerErrorsMatchOpenSim41PerFrame) {
   const Case& c = solved();
   const Storage e = read_storage(path);
   ASSERT_EQ(e.num_rows(), c.result.q.rows());
-  double worst = 0;
+  const int col = e.column("marker_error_RMS");
+  ASSERT_GE(col, 0);
+  double largest_excess = -1, largest_deficit = 0;
   for (int i = 0; i < e.num_rows(); ++i) {
     EXPECT_NEAR(e.time()[i], c.result.time_s[i], 1e-6);
-    worst = std::max(worst, std::abs(c.result.marker_rms_m[i] - e.data(i, e.column("marker_error_RMS"))));
+    const double d = c.result.marker_rms_m[i] - e.data(i, col);
+    largest_excess = std::max(largest_excess, d);
+    largest_deficit = std::max(largest_deficit, -d);
   }
-  EXPECT_LT(worst, 2e-4) << "per-frame marker RMS differs from OpenSim 4.1's by " << worst * 1e3 << " mm";
-  std::printf("[ info ] largest per-frame marker RMS difference vs OpenSim 4.1: %.4f mm\n", worst * 1e3);
+  EXPECT_TRUE(refdata::within_target_and_regression(largest_excess * 1e3, 0.2, 0.06)) << "mm above OpenSim 4.1's";
+  EXPECT_TRUE(refdata::within_target_and_regression(largest_deficit * 1e3, 0.2, 0.06)) << "mm below OpenSim 4.1's";
+  std::printf("[ info ] per-frame marker RMS vs OpenSim 4.1: ours larger by at most %.4f mm, smaller by at most %.4f mm\n",
+              largest_excess * 1e3, largest_deficit * 1e3);
 }

@@ -15,6 +15,8 @@
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/gait_events.h"
+#include "cpgait/kinematics/motion_subspace.h"
+#include "cpgait/muscles/muscle_path.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/muscles/scale_muscle_parameters.h"
 #include "test_support.h"
@@ -26,7 +28,16 @@ namespace {
 struct Comparison {
   std::vector<std::pair<double, std::string>> muscles;  // RMS, name (reference peak > 0.05)
   std::vector<std::string> residual_lines;
+  std::vector<std::pair<std::string, double>> residual_rms;  // actuator, RMS force difference (N or N m)
 };
+
+// Every active muscle within the target (0.03) and the regression bound; every residual's force
+// within its regression bound (forces FX/FY/FZ in N, moments in N m).
+void expect_within(const Comparison& c, double activation_regression, double force_regression, double moment_regression) {
+  for (const auto& [rms, name] : c.muscles) EXPECT_TRUE(refdata::within_target_and_regression(rms, 0.03, activation_regression)) << name;
+  ASSERT_EQ(c.residual_rms.size(), 6u);
+  for (const auto& [name, rms] : c.residual_rms) EXPECT_LT(rms, name[0] == 'F' ? force_regression : moment_regression) << name << ": regression bound";
+}
 
 Comparison compare(const Model& m, const StaticOptimizationResult& r, const Storage& ref_act, const Storage& ref_force) {
   Comparison c;
@@ -58,6 +69,7 @@ Comparison compare(const Model& m, const StaticOptimizationResult& r, const Stor
       std::snprintf(buf, sizeof buf, "%-4s mean |force| ours %7.2f, OpenSim %7.2f; RMS difference %.3f (N or N m)", r.names[j].c_str(),
                     ours_mean / n, theirs_mean / n, std::sqrt(force_sum2 / n));
       c.residual_lines.push_back(buf);
+      c.residual_rms.push_back({r.names[j], std::sqrt(force_sum2 / n)});
     }
   }
   std::sort(c.muscles.rbegin(), c.muscles.rend());
@@ -71,6 +83,13 @@ void print(const Comparison& c, const char* who) {
   for (const auto& l : c.residual_lines) std::printf("[ info ] vs %s: residual %s\n", who, l.c_str());
 }
 
+// The subject01 inputs static optimization reads (model, residual actuators, loads, OpenSim 4.1's IK).
+std::vector<std::string> subject01_so_inputs() {
+  const std::string pl = refdata::gait2392("pipeline/");
+  return {pl + "OutputReference/subject01_simbody.osim", pl + "gait2392_SO_weak_Residual_Actuators.xml", pl + "subject01_walk1_grf.xml",
+          pl + "subject01_walk1_grf.mot", refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot")};
+}
+
 }  // namespace
 
 // OpenSim 4.1 ran static optimization here on files we have (its IK, 6 Hz, the pipeline's GRF,
@@ -81,7 +100,8 @@ TEST(SoGait2392, MatchesOpenSim41OnTheSameInputs) {
   const std::string act = refdata::shared_path("opensim41-here/SO/subject01_walk1_StaticOptimization_activation.sto");
   const std::string frc = refdata::shared_path("opensim41-here/SO/subject01_walk1_StaticOptimization_force.sto");
   const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
-  for (const auto& p : {pl + "subject01_walk1_grf.mot", act, frc, ik}) REQUIRE_REFERENCE(p);
+  for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
+  for (const auto& p : {act, frc}) REQUIRE_REFERENCE(p);
   const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
   const ResolvedActuators acts(m, read_actuators(pl + "gait2392_SO_weak_Residual_Actuators.xml"));
   const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
@@ -94,10 +114,60 @@ TEST(SoGait2392, MatchesOpenSim41OnTheSameInputs) {
   EXPECT_EQ(r.time_s.size(), static_cast<std::size_t>(ref.num_rows() - 1));
   EXPECT_LT(r.summary.max_equality_violation, 1e-3) << "N m";
   const Comparison c = compare(m, r, ref, read_storage(frc));
-  ASSERT_GT(c.muscles.size(), 40u);
-  for (const auto& [rms, name] : c.muscles) EXPECT_LT(rms, 0.03) << name;
+  // Regression bounds about 4x what was measured when they were set: worst activation 0.0018
+  // (ext_dig_r), residual forces 0.34 N, moments 0.11 N m RMS.
+  EXPECT_GE(c.muscles.size(), 80u) << "muscles active above 0.05 (measured " << c.muscles.size() << ")";
+  expect_within(c, 0.008, 1.5, 0.45);
   print(c, "OpenSim 4.1");
   std::printf("[ info ] %s\n", r.summary.BriefReport().c_str());
+}
+
+// The forces static optimization returns, put back through the model independently of the solver's
+// own equality check: muscle forces through their moment arms (-dL/dq) plus each actuator's
+// generalized forces at its control reproduce inverse dynamics' generalized forces at every frame.
+// Measured largest imbalance 1.8e-9 N m (the solver's tolerance): the GUIDE's target 1e-3 N m, regression
+// bound 1e-6 N m.
+TEST(SoGait2392, ForcesBalanceInverseDynamicsThroughTheMomentArms) {
+  const std::string pl = refdata::gait2392("pipeline/");
+  const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
+  for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
+  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
+  const ResolvedActuators acts(m, read_actuators(pl + "gait2392_SO_weak_Residual_Actuators.xml"));
+  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  const Storage coordinates = read_storage(ik);
+  StaticOptimizationOptions so;
+  so.lowpass_cutoff_hz = 6;
+  const StaticOptimizationResult r = static_optimization(m, coordinates, &loads, acts, so);
+  InverseDynamicsOptions io;
+  io.lowpass_cutoff_hz = 6;
+  const InverseDynamicsResult id = inverse_dynamics(m, coordinates, &loads, io);
+  const int nm = static_cast<int>(m.muscles.size()), nq = m.num_coordinates();
+  KinematicsWorkspace<double> ws(m);
+  MotionSubspace S(m);
+  MusclePathGeometry geometry(m);
+  Eigen::MatrixXd actuator_columns(nq, acts.size());
+  double largest = 0, largest_moment = 0;
+  int frames = 0;
+  for (std::size_t i = 0; i < r.time_s.size(); ++i) {
+    const auto k = std::find_if(id.time_s.begin(), id.time_s.end(), [&](double t) { return std::abs(t - r.time_s[i]) < 1e-9; });
+    ASSERT_NE(k, id.time_s.end()) << "no inverse-dynamics frame at " << r.time_s[i];
+    const Eigen::Index row = k - id.time_s.begin();
+    const Eigen::VectorXd q = id.kinematics.q.row(row).transpose(), qd = id.kinematics.qd.row(row).transpose();
+    forward_kinematics(m, q.data(), ws);
+    motion_subspace(m, q.data(), ws, S);
+    muscle_path_geometry(m, q.data(), qd.data(), ws, S, geometry);
+    acts.generalized_forces(m, ws, S, actuator_columns);
+    const Eigen::VectorXd tau = geometry.moment_arm_m.transpose() * r.forces.row(static_cast<Eigen::Index>(i)).head(nm).transpose() +
+                                actuator_columns * r.controls.row(static_cast<Eigen::Index>(i)).tail(acts.size()).transpose();
+    largest = std::max(largest, (tau - id.generalized_forces.row(row).transpose()).cwiseAbs().maxCoeff());
+    largest_moment = std::max(largest_moment, id.generalized_forces.row(row).cwiseAbs().maxCoeff());
+    ++frames;
+  }
+  EXPECT_GT(frames, 100);
+  EXPECT_GT(largest_moment, 100.0) << "the frames carry real moments (N m)";
+  EXPECT_TRUE(refdata::within_target_and_regression(largest, 1e-3, 1e-6)) << "N m";
+  std::printf("[ info ] %d frames: muscles and actuators reproduce inverse dynamics within %.2e N m (largest moment %.1f N m)\n", frames, largest,
+              largest_moment);
 }
 
 // The tutorial's published results, from the tutorial's own inputs as shipped: foot_floor_loads.xml
@@ -107,7 +177,8 @@ TEST(SoGait2392, MatchesTheTutorialsPublishedResults) {
   const std::string so = refdata::gait2392("so_tutorial/");
   const std::string act = so + "OutputReference/ResultsStaticOptimization/subject01_StaticOptimization_activation.sto";
   const std::string frc = so + "OutputReference/ResultsStaticOptimization/subject01_StaticOptimization_force.sto";
-  for (const auto& p : {act, frc, so + "subject01_walk1_Kinematics.sto", so + "subject01_walk1_grf.mot", so + "foot_floor_loads.xml"})
+  for (const auto& p : {act, frc, so + "subject01_walk1_Kinematics.sto", so + "subject01_walk1_grf.mot", so + "foot_floor_loads.xml",
+                        so + "subject01_simbody_adjusted_StaticOp.osim", so + "gait2392_SO_weak_Residual_Actuators.xml"})
     REQUIRE_REFERENCE(p);
   const Model m = read_osim(so + "subject01_simbody_adjusted_StaticOp.osim").model;
   const ResolvedActuators acts(m, read_actuators(so + "gait2392_SO_weak_Residual_Actuators.xml"));
@@ -122,16 +193,21 @@ TEST(SoGait2392, MatchesTheTutorialsPublishedResults) {
   EXPECT_EQ(r.time_s.size(), 151u);  // 0.50, 0.51, ..., 1.99 and the final 1.999, as OpenSim's
   EXPECT_LT(r.summary.max_equality_violation, 1e-3) << "N m";
   const Comparison c = compare(m, r, read_storage(act), read_storage(frc));
-  ASSERT_GT(c.muscles.size(), 40u);
-  for (const auto& [rms, name] : c.muscles) EXPECT_LT(rms, 0.03) << name;
+  // Regression bounds about 4x the figures measured: activation 0.0022 (flex_hal_l); residual forces
+  // 0.93 N (the tutorial's loads file applies a torque twice, see above), moments 0.041 N m RMS.
+  EXPECT_GE(c.muscles.size(), 80u) << "muscles active above 0.05 (measured " << c.muscles.size() << ")";
+  expect_within(c, 0.009, 3.7, 0.17);
   print(c, "OpenSim tutorial");
   // OpenSim 4.1's own run of the same setup, where a peer machine has one: the residuals next to it too.
   const std::string act41 = refdata::shared_path("opensim41-here/SO_tutorial/subject01_StaticOptimization_activation.sto");
   const std::string frc41 = refdata::shared_path("opensim41-here/SO_tutorial/subject01_StaticOptimization_force.sto");
   if (std::filesystem::exists(act41) && std::filesystem::exists(frc41)) {
     const Comparison c41 = compare(m, r, read_storage(act41), read_storage(frc41));
-    for (const auto& [rms, name] : c41.muscles) EXPECT_LT(rms, 0.03) << name;
+    // Measured: activation 0.0041 (ext_dig_l); residuals as against the published results.
+    expect_within(c41, 0.016, 3.7, 0.19);
     print(c41, "OpenSim 4.1 (tutorial setup)");
+  } else {
+    std::printf("[ info ] not run: the comparison with OpenSim 4.1's run of this setup (%s absent)\n", act41.c_str());
   }
   std::printf("[ info ] %s\n", r.summary.BriefReport().c_str());
 }
@@ -176,7 +252,7 @@ const Subject01Cpg& subject01_cpg() {
 TEST(CpgGait2392, FitsSubject01Activations) {
   const std::string pl = refdata::gait2392("pipeline/");
   const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
-  for (const auto& p : {pl + "subject01_walk1_grf.mot", ik}) REQUIRE_REFERENCE(p);
+  for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
   const Subject01Cpg& c = subject01_cpg();
   const int nm = static_cast<int>(c.model.muscles.size());
   const Eigen::MatrixXd& cycle = c.cycle;
@@ -196,7 +272,10 @@ TEST(CpgGait2392, FitsSubject01Activations) {
   for (int k = 0; k < nm; ++k)
     if (cycle.col(k).maxCoeff() > fo.active_threshold) std::printf(" %s %.3f", names[k].c_str(), r.summary.r_squared[k]);
   std::printf("\n");
+  // Targets: more than 40 active muscles and mean R^2 >= 0.9. Measured 87 and 0.9244; the count is
+  // also held at 85 (a regression bound: SO's activations changing shape would move it).
   EXPECT_GT(r.summary.active_muscles, 40);
+  EXPECT_GE(r.summary.active_muscles, 85) << "regression bound";
   EXPECT_GE(r.summary.mean_r_squared_active, 0.9);
   // The assembled network, run as a CPG, reproduces the fitted patterns (same phase at t = 0).
   const double dt = cycle_s / 1000;
@@ -208,7 +287,8 @@ TEST(CpgGait2392, FitsSubject01Activations) {
   }
   std::printf("[ info ] running the fitted CPG: period %.5f s (gait cycle %.5f s)\n", oscillation_period(run.neurons.col(0), dt, 0), cycle_s);
   std::printf("[ info ] running the fitted CPG: largest difference from the fitted patterns %.4f (4th cycle)\n", largest);
-  EXPECT_LT(largest, 0.02);
+  EXPECT_LT(largest, 0.02);  // measured 0.0111
+  EXPECT_NEAR(oscillation_period(run.neurons.col(0), dt, 0), cycle_s, 0.005 * cycle_s);  // measured 1.23403 s against 1.23405 s
 }
 
 // Issue 5's reproduced gait: the fitted CPG drives the muscles on contact spheres fitted to the trial
@@ -222,9 +302,8 @@ TEST(CpgGait2392, FitsSubject01Activations) {
 TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   const std::string pl = refdata::gait2392("pipeline/");
   const std::string generic = refdata::gait2392("model/gait2392_simbody.osim");
-  for (const auto& p : {pl + "subject01_walk1_grf.mot", refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot"), generic,
-                        pl + "subject01_walk1.trc", pl + "subject01_Setup_IK.xml"})
-    REQUIRE_REFERENCE(p);
+  for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
+  for (const auto& p : {generic, pl + "subject01_walk1.trc", pl + "subject01_Setup_IK.xml"}) REQUIRE_REFERENCE(p);
   const Subject01Cpg& c = subject01_cpg();
   const Model m = scale_muscle_parameters(c.model, read_osim(generic).model);
   // The reference: our IK of the whole trial (0-2.5 s; OpenSim's IK file starts at 0.5 s and leaves
@@ -254,9 +333,10 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
     EXPECT_EQ(w.find("reference kinematics end"), std::string::npos) << w;  // two cycles inside the trial
   }
   EXPECT_LT(r.fell_at_s, 0.0);
+  // Target 5 deg RMS per coordinate; regression bound 3.5 deg (worst measured 2.38, subtalar_angle_r).
   for (int q = 0; q < m.num_coordinates(); ++q) {
     if (m.coordinates[q].is_angle()) {
-      EXPECT_LT(r.tracking_rms[q] * 180 / M_PI, 5.0) << m.coordinates[q].name;
+      EXPECT_TRUE(refdata::within_target_and_regression(r.tracking_rms[q] * 180 / M_PI, 5.0, 3.5)) << m.coordinates[q].name << " (deg)";
     }
   }
   // The pelvis on soft springs: it may drift over the treadmill, but not far.
@@ -264,10 +344,13 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   std::printf("[ info ] gait: heel strikes right %zu, left %zu; stride %.3f s (trial's cycle %.3f s); pelvis residual force %.1f %% BW, moment %.1f N m\n",
               r.heel_strikes_r_s.size(), r.heel_strikes_l_s.size(), r.stride_time_s, c.cycle_s, r.mean_residual_force_percent_bw,
               r.mean_residual_moment_Nm);
-  // The issue's residual bound: the ground carries the body.
-  EXPECT_LT(r.mean_residual_force_percent_bw, 10.0);
+  // The issue's residual bound, 10 % BW: the ground carries the body (measured 5.5 %: regression bound
+  // 7.5 %; the residual moment, measured 35.5 N m, 50 N m). The stride: within 5 % of the trial's
+  // cycle (measured 0.3 %: regression bound 1.5 %).
+  EXPECT_TRUE(refdata::within_target_and_regression(r.mean_residual_force_percent_bw, 10.0, 7.5)) << "% BW";
+  EXPECT_LT(r.mean_residual_moment_Nm, 50.0) << "regression bound";
   ASSERT_GE(r.heel_strikes_r_s.size(), 2u);
-  EXPECT_NEAR(r.stride_time_s, c.cycle_s, 0.05 * c.cycle_s);
+  EXPECT_TRUE(refdata::within_target_and_regression(std::abs(r.stride_time_s - c.cycle_s) / c.cycle_s, 0.05, 0.015)) << "stride";
   EXPECT_GE(r.heel_strikes_l_s.size(), 2u);
 
   // Without residuals: how far it walks before the pelvis drops below 75 % of its height.
@@ -275,7 +358,7 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   free.pelvis_residuals = false;
   const ReproducedGaitResult rf = reproduce_gait(m, c.fit.model, kin, feet, free);
   std::printf("[ info ] gait without residuals: %s\n", rf.BriefReport().c_str());
-  EXPECT_GT(rf.distance_m, 1.0);
+  EXPECT_GT(rf.distance_m, 1.3) << "regression bound (measured 1.53 m)";
 
   // The speed knob: +-20 % gives strides 20 % shorter or longer in time (the belt sped up alike),
   // still tracking the time-scaled trial within 5 deg and the residuals within 10 % BW.
@@ -286,9 +369,12 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
     const ReproducedGaitResult rs = reproduce_gait(m, c.fit.model, kin, feet, os);
     std::printf("[ info ] gait at speed %.1f: %s\n", speed, rs.BriefReport().c_str());
     ASSERT_GE(rs.heel_strikes_r_s.size(), 2u) << speed;
-    EXPECT_NEAR(rs.stride_time_s, r.stride_time_s / speed, 0.05 * r.stride_time_s / speed) << speed;
-    EXPECT_LT(rs.worst_rotation_rms_rad * 180 / M_PI, 5.0) << speed << ": " << rs.worst_rotation;
-    EXPECT_LT(rs.mean_residual_force_percent_bw, 10.0) << speed;
+    // Targets 5 % stride, 5 deg, 10 % BW; measured 0.3 %, 2.64 deg, 6.1 % BW at worst: regression
+    // bounds 1.5 %, 3.5 deg, 8 % BW.
+    const double expected = r.stride_time_s / speed;
+    EXPECT_TRUE(refdata::within_target_and_regression(std::abs(rs.stride_time_s - expected) / expected, 0.05, 0.015)) << speed;
+    EXPECT_TRUE(refdata::within_target_and_regression(rs.worst_rotation_rms_rad * 180 / M_PI, 5.0, 3.5)) << speed << ": " << rs.worst_rotation;
+    EXPECT_TRUE(refdata::within_target_and_regression(rs.mean_residual_force_percent_bw, 10.0, 8.0)) << speed;
   }
 }
 
@@ -299,6 +385,7 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
 TEST(ContactGait2392, DefaultFeetStandFlatAndTouchDownInTheTrial) {
   const std::string pl = refdata::gait2392("pipeline/");
   const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
+  REQUIRE_REFERENCE(pl + "OutputReference/subject01_simbody.osim");
   REQUIRE_REFERENCE(ik);
   const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
   ContactSet feet = default_foot_contacts(m);
@@ -324,7 +411,8 @@ TEST(ContactGait2392, DefaultFeetStandFlatAndTouchDownInTheTrial) {
   }
   for (std::size_t s = 0; s < feet.spheres.size(); ++s) {
     std::printf("[ info ] %s: lowest bottom over the trial %.1f mm from the ground\n", feet.spheres[s].name.c_str(), 1000 * lowest[s]);
-    EXPECT_LT(lowest[s], 0.010) << feet.spheres[s].name;
+    // Within 10 mm of the ground either way (measured -5.0 to 6.0 mm): touching down, not sunk in.
+    EXPECT_LT(std::abs(lowest[s]), 0.010) << feet.spheres[s].name;
   }
 }
 
@@ -332,7 +420,7 @@ TEST(ContactGait2392, DefaultFeetStandFlatAndTouchDownInTheTrial) {
 TEST(GaitEventsGait2392, ZeniHeelStrikesMatchForcePlateOnsets) {
   const std::string pl = refdata::gait2392("pipeline/");
   const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
-  for (const auto& p : {pl + "subject01_walk1_grf.mot", ik}) REQUIRE_REFERENCE(p);
+  for (const auto& p : {pl + "subject01_walk1_grf.mot", ik, pl + "OutputReference/subject01_simbody.osim"}) REQUIRE_REFERENCE(p);
   const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
   const Storage q = read_storage(ik);
   Eigen::MatrixXd qr(q.num_rows(), m.num_coordinates());
