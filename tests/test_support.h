@@ -7,10 +7,12 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <random>
 #include <string>
 #include <unistd.h>
 
+#include "cpgait/capture/storage.h"
 #include "cpgait/model/model.h"
 #include "cpgait/model/osim_reader.h"
 
@@ -64,6 +66,45 @@ inline ::testing::AssertionResult within_target_and_regression(double value, dou
   if (value > target) f << " exceeds the target " << target;
   if (value > regression_bound) f << (value > target ? " and" : "") << " exceeds the regression bound " << regression_bound;
   return f;
+}
+
+// Per column both tables have (time aside): the RMS difference and the reference's peak |value| over
+// the reference rows whose times ours has within time_tolerance_s, or, with interpolate, over those
+// inside ours' time span, ours read linearly between its rows. Values as stored (degrees stay degrees).
+struct ColumnDifference {
+  double rms = 0, peak = 0;
+  int rows = 0;
+};
+inline std::map<std::string, ColumnDifference> column_differences(const Storage& ours, const Storage& reference,
+                                                                  double time_tolerance_s = 1e-6, bool interpolate = false) {
+  std::map<std::string, ColumnDifference> out;
+  const Eigen::VectorXd t = ours.time();
+  for (int c = 1; c < reference.num_columns(); ++c) {
+    const std::string& label = reference.labels[static_cast<std::size_t>(c)];
+    const int o = ours.column(label);
+    if (o < 1 || ours.num_rows() < 2) continue;
+    ColumnDifference d;
+    double sum2 = 0;
+    for (int k = 0; k < reference.num_rows(); ++k) {
+      const double tk = reference.time()[k];
+      const Eigen::Index j = std::clamp<Eigen::Index>(std::upper_bound(t.data(), t.data() + t.size(), tk) - t.data(), 1, t.size() - 1);
+      double value;
+      if (std::abs(t[j - 1] - tk) <= time_tolerance_s || std::abs(t[j] - tk) <= time_tolerance_s) {
+        value = ours.data(std::abs(t[j - 1] - tk) <= time_tolerance_s ? j - 1 : j, o);
+      } else if (interpolate && tk > t[j - 1] && tk < t[j]) {
+        const double w = (tk - t[j - 1]) / (t[j] - t[j - 1]);
+        value = (1 - w) * ours.data(j - 1, o) + w * ours.data(j, o);
+      } else {
+        continue;
+      }
+      sum2 += std::pow(value - reference.data(k, c), 2);
+      d.peak = std::max(d.peak, std::abs(reference.data(k, c)));
+      ++d.rows;
+    }
+    d.rms = d.rows ? std::sqrt(sum2 / d.rows) : 0;
+    out[label] = d;
+  }
+  return out;
 }
 
 }  // namespace cpgait::refdata

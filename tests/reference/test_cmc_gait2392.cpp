@@ -264,7 +264,9 @@ TEST(CmcGait2392, WithoutGrfOnContactSpheres) {
               rms[m.coordinate_index("mtp_angle_l")] * 180 / M_PI);
   for (const auto& [name, value] : r.average_residuals()) {
     std::printf("[ info ] no GRF: average residual %s %8.2f%s\n", name.c_str(), value, name == "FY" ? "" : " (not asserted: see above)");
-    if (name == "FY") EXPECT_LT(std::abs(value), 700.0) << "N: regression bound";
+    if (name == "FY") {
+      EXPECT_LT(std::abs(value), 700.0) << "N: regression bound";
+    }
   }
   EXPECT_LT(worst * 180 / M_PI, 3.0) << worst_name;
   for (const char* mtp : {"mtp_angle_r", "mtp_angle_l"}) EXPECT_LT(rms[m.coordinate_index(mtp)] * 180 / M_PI, 20.0) << mtp << ": regression bound";

@@ -46,26 +46,18 @@ const std::map<std::string, double> kMeasuredVs41 = {
 // peak) and within the regression bound, 4x the figure measured (at least 0.02).
 void compare(const Model& m, const InverseDynamicsResult& r, const Storage& ref, const char* who,
              const std::map<std::string, double>& measured) {
+  const auto differences = refdata::column_differences(inverse_dynamics_table(m, r), ref, 1e-4);
   for (int c = 0; c < m.num_coordinates(); ++c) {
     const std::string label = m.coordinates[c].name + (m.coordinates[c].is_angle() ? "_moment" : "_force");
-    const int col = ref.column(label);
-    ASSERT_GE(col, 0) << label;
-    double sum2 = 0, peak = 0;
-    int n = 0;
-    for (std::size_t i = 0; i < r.time_s.size(); ++i)
-      for (int k = 0; k < ref.num_rows(); ++k)
-        if (std::abs(ref.time()[k] - r.time_s[i]) < 1e-4) {
-          sum2 += std::pow(r.generalized_forces(i, c) - ref.data(k, col), 2);
-          peak = std::max(peak, std::abs(ref.data(k, col)));
-          ++n;
-        }
-    ASSERT_GT(n, 50) << label;
-    const double rms = std::sqrt(sum2 / n), tolerance = std::max(2.0, 0.05 * peak);
+    ASSERT_EQ(differences.count(label), 1u) << label;
+    const refdata::ColumnDifference& d = differences.at(label);
+    ASSERT_GT(d.rows, 50) << label;
+    const double tolerance = std::max(2.0, 0.05 * d.peak);
     ASSERT_EQ(measured.count(label), 1u) << label;
     const double regression = std::max(4 * measured.at(label), 0.02);
-    EXPECT_TRUE(refdata::within_target_and_regression(rms, tolerance, regression)) << label;
-    std::printf("[ info ] vs %s: %-24s RMS %.3f (target %.2f, regression bound %.3f, peak %.1f, %d frames)\n", who, label.c_str(), rms,
-                tolerance, regression, peak, n);
+    EXPECT_TRUE(refdata::within_target_and_regression(d.rms, tolerance, regression)) << label;
+    std::printf("[ info ] vs %s: %-24s RMS %.3f (target %.2f, regression bound %.3f, peak %.1f, %d frames)\n", who, label.c_str(), d.rms,
+                tolerance, regression, d.peak, d.rows);
   }
 }
 

@@ -91,12 +91,23 @@ TEST(MusclePath, ConditionalPointSwitchesWithItsCoordinate) {
     forward_kinematics(m, q.data(), ws);
     return path_length(vas, q.data(), ws);
   };
-  // Inside the range the path goes through P2, so it is longer than the straight line P1-P3.
+  // Inside the range the path goes through P2, so it is longer than the straight line P1-P3; outside
+  // it is that straight line.
+  auto straight = [&](double k) {
+    q[knee] = k;
+    forward_kinematics(m, q.data(), ws);
+    auto at = [&](const PathPoint& p) {
+      const auto& B = ws.body_in_ground[p.body];
+      return Eigen::Vector3d(B.rotation * path_point_location(p, q.data()) + B.translation_m);
+    };
+    return (at(vas.path[2]) - at(vas.path[0])).norm();
+  };
+  ASSERT_EQ(vas.path.size(), 3u);
   const double inside = length(-1.5), outside = length(-1.3);
   EXPECT_TRUE(path_point_active(vas.path[1], -1.5));
   EXPECT_FALSE(path_point_active(vas.path[1], -1.3));
-  EXPECT_GT(inside, 0);
-  EXPECT_GT(outside, 0);
+  EXPECT_GT(inside, straight(-1.5) + 1e-4);
+  EXPECT_NEAR(outside, straight(-1.3), 1e-12);
 }
 
 TEST(Thelen2003, CurvesHaveTheirDefiningValues) {

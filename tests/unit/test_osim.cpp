@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <pugixml.hpp>
+
 #include "cpgait/capture/input_error.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/osim_reader.h"
@@ -143,7 +145,7 @@ TEST(OsimReference, ReadsGenericModelAndMarkerSetFile) {
   o.marker_set_file = markers;
   const OsimReadResult r = read_osim(model, o);
   EXPECT_EQ(r.model.num_coordinates(), 23);
-  EXPECT_GE(r.model.markers.size(), 39u);
+  EXPECT_EQ(r.model.markers.size(), 39u);  // the marker set's 39; the generic model has none
   EXPECT_GE(r.model.marker_index("R.ASIS"), 0);
 }
 
@@ -152,9 +154,26 @@ TEST(OsimReference, ReadsMillardMuscles) {
   REQUIRE_REFERENCE(path);
   const OsimReadResult r = read_osim(path);
   ASSERT_EQ(r.model.muscles.size(), 92u);
-  for (const auto& mu : r.model.muscles) {
+  // Every muscle's parameters as the file states them (read here with pugixml, independently).
+  pugi::xml_document doc;
+  ASSERT_TRUE(doc.load_file(path.c_str()));
+  int compared = 0;
+  for (const auto& x : doc.select_nodes("//Millard2012EquilibriumMuscle")) {
+    const pugi::xml_node e = x.node();
+    const auto it = std::find_if(r.model.muscles.begin(), r.model.muscles.end(),
+                                 [&](const Muscle& m) { return m.name == e.attribute("name").value(); });
+    ASSERT_NE(it, r.model.muscles.end()) << e.attribute("name").value();
+    const Muscle& mu = *it;
     EXPECT_EQ(mu.type, "Millard2012EquilibriumMuscle");
-    EXPECT_GT(mu.optimal_fiber_length_m, 0);
-    EXPECT_GT(mu.activation_time_constant_s, 0);
+    EXPECT_DOUBLE_EQ(mu.max_isometric_force_N, e.child("max_isometric_force").text().as_double()) << mu.name;
+    EXPECT_DOUBLE_EQ(mu.optimal_fiber_length_m, e.child("optimal_fiber_length").text().as_double()) << mu.name;
+    EXPECT_DOUBLE_EQ(mu.tendon_slack_length_m, e.child("tendon_slack_length").text().as_double()) << mu.name;
+    EXPECT_DOUBLE_EQ(mu.pennation_angle_at_optimal_rad, e.child("pennation_angle_at_optimal").text().as_double()) << mu.name;
+    EXPECT_DOUBLE_EQ(mu.max_contraction_velocity, e.child("max_contraction_velocity").text().as_double()) << mu.name;
+    if (e.child("activation_time_constant")) {
+      EXPECT_DOUBLE_EQ(mu.activation_time_constant_s, e.child("activation_time_constant").text().as_double()) << mu.name;
+    }
+    ++compared;
   }
+  EXPECT_EQ(compared, 92);
 }
