@@ -408,7 +408,11 @@ TEST(Api, TokenCancelDeleteListAndMetrics) {
   const std::string b = body(c.Post("/api/v1/trials", trial_form(long_trc, "b.trc", {{"model", "walker"}})))["id"];
   const std::string k = body(c.Post("/api/v1/trials", trial_form(synthetic_trc(0.3), "k.trc", {{"model", "walker"}, {"stages", {"ik"}}})))["id"];
   EXPECT_EQ(c.Post(("/api/v1/trials/" + b + "/cancel").c_str())->status, 202);
-  while (body(c.Get(("/api/v1/trials/" + a).c_str()))["status"] == "queued") std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const auto started_by = std::chrono::steady_clock::now() + std::chrono::seconds(60);  // liveness bound
+  while (body(c.Get(("/api/v1/trials/" + a).c_str()))["status"] == "queued") {
+    ASSERT_LT(std::chrono::steady_clock::now(), started_by) << "trial " << a << " never left the queue";
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   EXPECT_EQ(c.Post(("/api/v1/trials/" + a + "/cancel").c_str())->status, 202);
   EXPECT_EQ(wait_finished(c, a, 60), "cancelled");
   EXPECT_EQ(wait_finished(c, b, 60), "cancelled");
@@ -463,11 +467,12 @@ TEST(ApiReference, FiftyConcurrentUploads) {
   for (auto& t : uploaders) t.join();
   for (const auto& f : failures) EXPECT_TRUE(f.empty()) << f;
   ASSERT_EQ(std::count_if(ids.begin(), ids.end(), [](const std::string& s) { return !s.empty(); }), 50);
-  // Poll every trial while they run; keep the latencies.
+  // Poll every trial while they run; keep the latencies. The bound is liveness only (measured ~10 s
+  // for all 50 here; throughput is measured by the benchmark BM_PipelineIkIdSoSubject01).
   std::vector<double> latency_ms;
   int done = 0;
-  const auto deadline = start + std::chrono::seconds(300);
-  while (done < 50 && std::chrono::steady_clock::now() < deadline) {
+  const auto liveness = start + std::chrono::seconds(900);
+  while (done < 50 && std::chrono::steady_clock::now() < liveness) {
     done = 0;
     for (const auto& id : ids) {
       const auto t0 = std::chrono::steady_clock::now();
@@ -480,7 +485,7 @@ TEST(ApiReference, FiftyConcurrentUploads) {
     }
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_EQ(done, 50);
+  EXPECT_EQ(done, 50) << "trials still unfinished after the 900 s liveness bound";
   std::sort(latency_ms.begin(), latency_ms.end());
   long peak_kb = 0;
   {
@@ -489,8 +494,8 @@ TEST(ApiReference, FiftyConcurrentUploads) {
     while (std::getline(status, line))
       if (line.rfind("VmHWM:", 0) == 0) peak_kb = std::stol(line.substr(6));
   }
-  std::printf("[ info ] 50 concurrent subject01 uploads (2 workers): all done in %.2f s; server peak RSS %.1f MB; "
-              "GET /trials/{id} while running: p50 %.2f ms, p95 %.2f ms over %zu requests\n",
+  std::printf("[ info ] not asserted (timings, for the record; the benchmark holds throughput): 50 concurrent subject01 uploads "
+              "(2 workers): all done in %.2f s; server peak RSS %.1f MB; GET /trials/{id} while running: p50 %.2f ms, p95 %.2f ms over %zu requests\n",
               wall, peak_kb / 1024.0, latency_ms[latency_ms.size() / 2], latency_ms[latency_ms.size() * 95 / 100], latency_ms.size());
   fs::remove_all(dir);
 }

@@ -71,6 +71,8 @@ try {
     loads = path.join(pipeline, 'subject01_walk1_grf.xml');
     model = path.join(pipeline, 'OutputReference/subject01_simbody.osim');
   } else {
+    console.log(`without ${pipeline}: a synthetic trial on the built-in model instead of subject01; dropped: the model upload, `
+      + 'the time range, and the CPG and reproduced-gait panel checks (they need a full gait cycle with GRF)');
     trc = path.join(work, 'walk.trc');
     execFileSync(CPGAIT_BINARY, ['synth', '--model', path.join(CPGAIT_SOURCE_DIR, 'fixtures/models/walker.osim'), '--duration', '2', '-o', trc]);
   }

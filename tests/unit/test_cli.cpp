@@ -117,6 +117,8 @@ TEST(CliReference, RunToolRunsOpenSimsCmcSetup) {
     ASSERT_EQ(scaled.status, 0) << scaled.output;
     EXPECT_NE(scaled.output.find("92 muscles scaled"), std::string::npos) << scaled.output;
     EXPECT_EQ(scaled.output.find("were their fibre and tendon lengths scaled"), std::string::npos) << scaled.output;
+  } else {
+    std::printf("[ info ] not run: run-tool --scale-muscles-from (%s absent)\n", generic.c_str());
   }
   for (const char* f : {"_controls.sto", "_states.sto", "_Kinematics_q.sto", "_pErr.sto", "_Actuation_force.sto", "_avgResiduals.txt"})
     EXPECT_TRUE(fs::exists(dir + "/subject01_walk1" + f)) << f;

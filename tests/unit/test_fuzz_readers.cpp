@@ -3,6 +3,8 @@
 // cpgait's own fixture model and a synthetic trial always.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -94,7 +96,11 @@ TEST(Fuzz, TrcReaderSurvivesCorruption) {
   const std::string trc = synthetic_trc();
   fuzz(trc, [](const std::string& s) { parse_trc(s, "fuzz.trc"); }, 400, 1);
   const std::string real = refdata::gait2392("pipeline/subject01_walk1.trc");
-  if (std::filesystem::exists(real)) fuzz(slurp(real), [](const std::string& s) { parse_trc(s, "fuzz.trc"); }, 150, 2);
+  if (std::filesystem::exists(real)) {
+    fuzz(slurp(real), [](const std::string& s) { parse_trc(s, "fuzz.trc"); }, 150, 2);
+  } else {
+    std::printf("[ info ] not run: fuzzing OpenSim's walking TRC (%s absent)\n", real.c_str());
+  }
 }
 
 TEST(Fuzz, StorageReaderSurvivesCorruption) {
@@ -107,8 +113,11 @@ TEST(Fuzz, StorageReaderSurvivesCorruption) {
   for (int r = 0; r < 40; ++r) s.data(r, 0) = r * 0.01;
   fuzz(format_storage(s), [](const std::string& t) { parse_storage(t, "fuzz.sto"); }, 400, 3);
   const std::string real = refdata::gait2392("pipeline/OutputReference/subject01_walk1_ik.mot");
-  if (std::filesystem::exists(real))
+  if (std::filesystem::exists(real)) {
     fuzz(slurp(real), [](const std::string& t) { parse_storage(t, "fuzz.mot"); }, 60, 4);
+  } else {
+    std::printf("[ info ] not run: fuzzing OpenSim's IK .mot (%s absent)\n", real.c_str());
+  }
 }
 
 TEST(Fuzz, OsimReaderSurvivesCorruption) {

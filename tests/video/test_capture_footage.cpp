@@ -56,8 +56,20 @@ TEST(CaptureFootage, WalkerFromFourCamerasTriangulatesAndTracksJointAngles) {
               single_mm.size(), percentile(single_mm, 0.5), percentile(single_mm, 0.95), filled_mm.size(), percentile(filled_mm, 0.5),
               percentile(filled_mm, 0.95), all_mm.size(), percentile(all_mm, 0.5), percentile(all_mm, 0.95));
   ASSERT_GT(triangulated_mm.size(), 0.6 * r.markers.num_frames() * r.markers.num_markers());
-  EXPECT_LE(percentile(triangulated_mm, 0.5), 2.0);
-  EXPECT_LE(percentile(triangulated_mm, 0.95), 5.0);
+  // Target: median 2 mm (the GUIDE), p95 5 mm. Measured 0.26 and 0.73 mm: regression bounds 1.0 and 3.0 mm.
+  EXPECT_TRUE(cpgait::refdata::within_target_and_regression(percentile(triangulated_mm, 0.5), 2.0, 1.0)) << "triangulated median (mm)";
+  EXPECT_TRUE(cpgait::refdata::within_target_and_regression(percentile(triangulated_mm, 0.95), 5.0, 3.0)) << "triangulated p95 (mm)";
+  // Gap-filled corners (measured 32: median 0.38 mm, p95 1.22 mm): held at 1.5 and 5 mm.
+  ASSERT_GT(filled_mm.size(), 10u);
+  EXPECT_LE(percentile(filled_mm, 0.5), 1.5);
+  EXPECT_LE(percentile(filled_mm, 0.95), 5.0);
+  // Single-view corners: none on this footage (every tag that IPPE would place is seen by two cameras
+  // or too small), so nothing to hold here; Capture.SingleViewPoseStandsInOnlyForALostSegment does.
+  if (single_mm.empty()) {
+    std::printf("[ info ] not asserted: no corner came from a single view on this footage\n");
+  } else {
+    EXPECT_LE(percentile(single_mm, 0.5), 10.0) << "single-view median (mm)";
+  }
 
   // IK on the captured markers, as any TRC: joint angles against the truth.
   const fixtures::TaggedWalker w = fixtures::tagged_walker();
