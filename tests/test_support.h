@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <map>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <unistd.h>
 
@@ -66,6 +67,13 @@ inline ::testing::AssertionResult within_target_and_regression(double value, dou
   if (value > target) f << " exceeds the target " << target;
   if (value > regression_bound) f << (value > target ? " and" : "") << " exceeds the regression bound " << regression_bound;
   return f;
+}
+
+// The column of `label`. Absent, it throws (gtest reports the test failed), so no test reads column -1.
+inline int required_column(const Storage& s, const std::string& label) {
+  const int c = s.column(label);
+  if (c < 0) throw std::runtime_error("no column '" + label + "' in " + (s.name.empty() ? std::string("the table") : s.name));
+  return c;
 }
 
 // Per column both tables have (time aside): the RMS difference and the reference's peak |value| over

@@ -47,7 +47,7 @@ Eigen::VectorXd reference_pose(const Model& m, const Storage& ref, double t) {
     return q.setConstant(std::numeric_limits<double>::quiet_NaN());
   }
   for (int c = 0; c < m.num_coordinates(); ++c)
-    q[c] = ref.data(row, ref.column(m.coordinates[c].name)) * (m.coordinates[c].is_angle() ? M_PI / 180 : 1.0);
+    q[c] = ref.data(row, refdata::required_column(ref, m.coordinates[c].name)) * (m.coordinates[c].is_angle() ? M_PI / 180 : 1.0);
   return q;
 }
 

@@ -237,7 +237,7 @@ const Subject01Cpg& subject01_cpg() {
     StaticOptimizationOptions o;
     o.lowpass_cutoff_hz = 6;
     const StaticOptimizationResult so = static_optimization(m, read_storage(ik), &loads, acts, o);
-    const std::vector<double> strikes = contact_onsets(grf.time(), grf.data.col(grf.column("ground_force_vy")));
+    const std::vector<double> strikes = contact_onsets(grf.time(), grf.data.col(refdata::required_column(grf, "ground_force_vy")));
     const int nm = static_cast<int>(m.muscles.size());
     c.cycle = cycle_average(so.time_s, so.controls.leftCols(nm), strikes, 100);
     c.names.assign(so.names.begin(), so.names.begin() + nm);
@@ -432,7 +432,7 @@ TEST(GaitEventsGait2392, ZeniHeelStrikesMatchForcePlateOnsets) {
   const std::vector<double> time(q.time().data(), q.time().data() + q.num_rows());
   const Storage grf = read_storage(pl + "subject01_walk1_grf.mot");
   for (const auto& [foot, column] : {std::pair<std::string, std::string>{"calcn_r", "ground_force_vy"}, {"calcn_l", "1_ground_force_vy"}}) {
-    const std::vector<double> plate = contact_onsets(grf.time(), grf.data.col(grf.column(column)));
+    const std::vector<double> plate = contact_onsets(grf.time(), grf.data.col(refdata::required_column(grf, column)));
     const std::vector<double> zeni = heel_strikes_zeni(m, time, qr, foot);
     int matched = 0;
     for (double t : plate) {

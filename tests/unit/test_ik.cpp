@@ -98,8 +98,8 @@ TEST(Ik, TablesUseOpenSimUnitsAndNames) {
   const Storage q = ik_coordinates_table(walker(), r);
   EXPECT_TRUE(q.in_degrees.value());
   const int knee = walker().coordinate_index("knee_angle_r");
-  EXPECT_NEAR(q.data(3, q.column("knee_angle_r")), r.q(3, knee) * 180 / M_PI, 1e-12);
-  EXPECT_NEAR(q.data(3, q.column("pelvis_tx")), r.q(3, walker().coordinate_index("pelvis_tx")), 1e-15);
+  EXPECT_NEAR(q.data(3, refdata::required_column(q, "knee_angle_r")), r.q(3, knee) * 180 / M_PI, 1e-12);
+  EXPECT_NEAR(q.data(3, refdata::required_column(q, "pelvis_tx")), r.q(3, walker().coordinate_index("pelvis_tx")), 1e-15);
   const Storage e = ik_marker_errors_table(r);
   EXPECT_EQ(e.labels[1], "total_squared_error");
   EXPECT_EQ(e.labels[2], "marker_error_RMS");

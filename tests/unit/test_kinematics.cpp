@@ -116,7 +116,7 @@ TEST(KinematicsReference, ReproducesOpenSimMarkerErrorsAtOpenSimsPoses) {
     ASSERT_GE(frame, 0);
     Eigen::VectorXd q(m.num_coordinates());
     for (int c = 0; c < m.num_coordinates(); ++c)
-      q[c] = pose.data(r, pose.column(m.coordinates[c].name)) * (m.coordinates[c].is_angle() ? M_PI / 180 : 1.0);
+      q[c] = pose.data(r, refdata::required_column(pose, m.coordinates[c].name)) * (m.coordinates[c].is_angle() ? M_PI / 180 : 1.0);
     forward_kinematics(m, q.data(), ws);
     double sum2 = 0, mx = 0;
     for (const auto& t : targets.markers) {
@@ -125,8 +125,8 @@ TEST(KinematicsReference, ReproducesOpenSimMarkerErrorsAtOpenSimsPoses) {
       mx = std::max(mx, e);
     }
     const double rms = std::sqrt(sum2 / targets.markers.size());
-    worst_rms = std::max(worst_rms, std::abs(rms - errors.data(r, errors.column("marker_error_RMS"))));
-    worst_max = std::max(worst_max, std::abs(mx - errors.data(r, errors.column("marker_error_max"))));
+    worst_rms = std::max(worst_rms, std::abs(rms - errors.data(r, refdata::required_column(errors, "marker_error_RMS"))));
+    worst_max = std::max(worst_max, std::abs(mx - errors.data(r, refdata::required_column(errors, "marker_error_max"))));
   }
   // The files print 8 decimals (1e-8 m, 1e-8 deg): agreement to 1 micrometre is exact in effect.
   EXPECT_LT(worst_rms, 1e-6);

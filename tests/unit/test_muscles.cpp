@@ -73,6 +73,21 @@ const Muscle& vastus() { return refdata::walker().muscles[0]; }
 
 TEST(MusclePath, MomentArmsOnFixtureModel) { check_moment_arms(read_osim(refdata::fixture("models/walker.osim")).model, 16); }
 
+// A moving point in the middle of a path (gait2392's and the walker's come last): the walker's
+// vastus gains a fixed point on the tibia after its moving patella point, so both ends of a segment
+// move with the knee through the point's functions.
+TEST(MusclePath, MomentArmsWithAMovingPointMidPath) {
+  Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  Muscle& vas = m.muscles[0];
+  ASSERT_EQ(vas.path.back().kind, PathPoint::Kind::kMoving);
+  PathPoint distal;
+  distal.name = "distal";
+  distal.body = vas.path.back().body;
+  distal.location_m = Eigen::Vector3d(0.01, -0.12, 0.0);
+  vas.path.push_back(distal);
+  check_moment_arms(m, 16);
+}
+
 TEST(MusclePathReference, MomentArmsOnGait2392) {
   const std::string path = refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim");
   REQUIRE_REFERENCE(path);

@@ -76,6 +76,20 @@ DualNewtonSummary minimize_separable_quadratic(const Eigen::MatrixXd& A, const E
   return summary;
 }
 
+namespace {
+// sum |x + d|^p - |x|^p, each term without the cancellation of two large sums: the Armijo test on
+// the difference of sums failed by rounding for small variables next to large ones (measured).
+double objective_change(const Eigen::VectorXd& x, const Eigen::VectorXd& d, double p) {
+  double change = 0;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    const double r = d[i] / x[i];
+    change += x[i] != 0 && r > -1 ? std::pow(std::abs(x[i]), p) * std::expm1(p * std::log1p(r))
+                                  : std::pow(std::abs(x[i] + d[i]), p) - std::pow(std::abs(x[i]), p);
+  }
+  return change;
+}
+}  // namespace
+
 DualNewtonSummary minimize_power_sum(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lo,
                                      const Eigen::VectorXd& hi, const DualNewtonOptions& o, Eigen::VectorXd& lambda,
                                      Eigen::VectorXd& x) {
@@ -87,7 +101,6 @@ DualNewtonSummary minimize_power_sum(const Eigen::MatrixXd& A, const Eigen::Vect
                                                            Eigen::VectorXd::Zero(n), lo, hi, o, lambda, x);
   if (p == 2.0 || !summary.converged) return summary;
 
-  auto objective = [p](const Eigen::VectorXd& v) { return v.array().abs().pow(p).sum(); };
   Eigen::VectorXd h(n), g(n), step, step_lambda;
   const double zero = 0.0;
   for (summary.outer_iterations = 0; summary.outer_iterations < o.max_outer_iterations; ++summary.outer_iterations) {
@@ -107,11 +120,16 @@ DualNewtonSummary minimize_power_sum(const Eigen::MatrixXd& A, const Eigen::Vect
     // As the step vanishes g = A^T mu on the free variables: the step's multipliers become the
     // problem's.
     lambda = step_lambda;
-    const double decrease = -g.dot(step) - 0.5 * step.dot(h.asDiagonal() * step);
-    if (!(decrease > 1e-14 * (1.0 + objective(x)))) break;  // first-order optimal to rounding
-    const double f = objective(x);
+    // Stationary once every variable's step is negligible next to its value. A test on the model's
+    // decrease, a sum dominated by the largest variables, stopped small ones 0.3 % short (measured).
+    if ((step.array().abs() <= 1e-9 * (x.array().abs() + 1e-9)).all()) break;
+    // Armijo's test, with the rounding of the large variables' equality drift allowed for: near the
+    // solution it outweighs the small variables' descent and made every step fail (measured).
+    const double rounding = 1e-13 * (1.0 + x.array().abs().pow(p).sum());
     double t = 1.0;
-    for (int k = 0; k < 50 && objective(x + t * step) > f + 1e-4 * t * g.dot(step); ++k) t *= 0.5;
+    int halvings = 0;
+    for (; halvings < 50 && objective_change(x, t * step, p) > 1e-4 * t * g.dot(step) + rounding; ++halvings) t *= 0.5;
+    if (halvings == 50) break;  // no descent left
     x += t * step;
   }
   summary.equality_residual = (A * x - b).cwiseAbs().maxCoeff();
