@@ -1,6 +1,8 @@
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <random>
 
 #include "cpgait/model/osim_reader.h"
@@ -86,6 +88,30 @@ TEST(MusclePath, MomentArmsWithAMovingPointMidPath) {
   distal.location_m = Eigen::Vector3d(0.01, -0.12, 0.0);
   vas.path.push_back(distal);
   check_moment_arms(m, 16);
+}
+
+// OpenSim's paths run from origin to insertion, proximal to distal; the same path given the other
+// way round has the same length and moment arms (the branch of the chain walk for a point on a deeper
+// body than the next one runs only then).
+TEST(MusclePath, APathGivenFromInsertionToOriginHasTheSameMomentArms) {
+  const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  Model reversed = m;
+  for (Muscle& mu : reversed.muscles) std::reverse(mu.path.begin(), mu.path.end());
+  check_moment_arms(reversed, 8);
+  KinematicsWorkspace<double> ws(m);
+  MotionSubspace S(m);
+  MusclePathGeometry g(m), gr(m);
+  std::mt19937 rng(5);
+  for (int t = 0; t < 8; ++t) {
+    const Eigen::VectorXd q = refdata::random_pose(m, rng, 2.0), qd = Eigen::VectorXd::Ones(m.num_coordinates());
+    forward_kinematics(m, q.data(), ws);
+    motion_subspace(m, q.data(), ws, S);
+    muscle_path_geometry(m, q.data(), qd.data(), ws, S, g);
+    muscle_path_geometry(reversed, q.data(), qd.data(), ws, S, gr);
+    EXPECT_LT((g.length_m - gr.length_m).cwiseAbs().maxCoeff(), 1e-14);
+    EXPECT_LT((g.moment_arm_m - gr.moment_arm_m).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_GT(g.moment_arm_m.cwiseAbs().maxCoeff(), 0.01);
+  }
 }
 
 TEST(MusclePathReference, MomentArmsOnGait2392) {
