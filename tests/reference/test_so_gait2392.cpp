@@ -83,6 +83,24 @@ void print(const Comparison& c, const char* who) {
   for (const auto& l : c.residual_lines) std::printf("[ info ] vs %s: residual %s\n", who, l.c_str());
 }
 
+// subject01's static-optimization problem as OpenSim 4.1 ran it here: model, weak residual actuators,
+// the pipeline's loads, OpenSim 4.1's IK.
+struct Subject01So {
+  Model model;
+  std::unique_ptr<ResolvedActuators> actuators;
+  std::unique_ptr<AppliedLoads> loads;
+  Storage coordinates;
+};
+Subject01So subject01_so() {
+  const std::string pl = refdata::gait2392("pipeline/");
+  Subject01So s;
+  s.model = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
+  s.actuators = std::make_unique<ResolvedActuators>(s.model, read_actuators(pl + "gait2392_SO_weak_Residual_Actuators.xml"));
+  s.loads = std::make_unique<AppliedLoads>(s.model, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  s.coordinates = read_storage(refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot"));
+  return s;
+}
+
 // The subject01 inputs static optimization reads (model, residual actuators, loads, OpenSim 4.1's IK).
 std::vector<std::string> subject01_so_inputs() {
   const std::string pl = refdata::gait2392("pipeline/");
@@ -102,14 +120,13 @@ TEST(SoGait2392, MatchesOpenSim41OnTheSameInputs) {
   const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
   for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
   for (const auto& p : {act, frc}) REQUIRE_REFERENCE(p);
-  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
-  const ResolvedActuators acts(m, read_actuators(pl + "gait2392_SO_weak_Residual_Actuators.xml"));
-  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
+  const Subject01So so = subject01_so();
+  const Model& m = so.model;
   const Storage ref = read_storage(act);
   StaticOptimizationOptions o;
   o.lowpass_cutoff_hz = 6;
   for (int k = 0; k < ref.num_rows(); ++k) o.output_times_s.push_back(ref.time()[k]);
-  const StaticOptimizationResult r = static_optimization(m, read_storage(ik), &loads, acts, o);
+  const StaticOptimizationResult r = static_optimization(m, so.coordinates, so.loads.get(), *so.actuators, o);
   // OpenSim's first frame (0.492 s) lies before the data; it evaluates padding there, cpgait does not.
   EXPECT_EQ(r.time_s.size(), static_cast<std::size_t>(ref.num_rows() - 1));
   EXPECT_LT(r.summary.max_equality_violation, 1e-3) << "N m";
@@ -131,16 +148,15 @@ TEST(SoGait2392, ForcesBalanceInverseDynamicsThroughTheMomentArms) {
   const std::string pl = refdata::gait2392("pipeline/");
   const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
   for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
-  const Model m = read_osim(pl + "OutputReference/subject01_simbody.osim").model;
-  const ResolvedActuators acts(m, read_actuators(pl + "gait2392_SO_weak_Residual_Actuators.xml"));
-  const AppliedLoads loads(m, read_external_loads(pl + "subject01_walk1_grf.xml"), read_storage(pl + "subject01_walk1_grf.mot"));
-  const Storage coordinates = read_storage(ik);
+  const Subject01So in = subject01_so();
+  const Model& m = in.model;
+  const ResolvedActuators& acts = *in.actuators;
   StaticOptimizationOptions so;
   so.lowpass_cutoff_hz = 6;
-  const StaticOptimizationResult r = static_optimization(m, coordinates, &loads, acts, so);
+  const StaticOptimizationResult r = static_optimization(m, in.coordinates, in.loads.get(), acts, so);
   InverseDynamicsOptions io;
   io.lowpass_cutoff_hz = 6;
-  const InverseDynamicsResult id = inverse_dynamics(m, coordinates, &loads, io);
+  const InverseDynamicsResult id = inverse_dynamics(m, in.coordinates, in.loads.get(), io);
   const int nm = static_cast<int>(m.muscles.size()), nq = m.num_coordinates();
   KinematicsWorkspace<double> ws(m);
   MotionSubspace S(m);

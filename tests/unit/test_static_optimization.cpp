@@ -72,21 +72,32 @@ TEST(DualNewton, SatisfiesKktOnRandomProblems) {
   }
 }
 
-TEST(StaticOptimization, CoordinateActuatorsAloneCarryTheInverseDynamics) {
-  const Model& m = walker();
-  const auto synth = fixtures::synthesize_trial(m, {});
-  const Storage coords = make_storage("coordinates", coordinate_names(m), synth.markers.time_s, synth.q, false);
-  // Model without muscles: one coordinate actuator per coordinate, optimal force 100.
+namespace {
+Model without_muscles(const Model& m) {
   Model bare = m;
   bare.muscles.clear();
+  return bare;
+}
+// One coordinate actuator per coordinate, named <coordinate>_reserve.
+std::vector<ActuatorSpec> reserves(const Model& m, double optimal_force) {
   std::vector<ActuatorSpec> specs;
   for (const auto& c : m.coordinates) {
     ActuatorSpec a;
     a.name = c.name + "_reserve";
     a.coordinate = c.name;
-    a.optimal_force = 100;
+    a.optimal_force = optimal_force;
     specs.push_back(a);
   }
+  return specs;
+}
+}  // namespace
+
+TEST(StaticOptimization, CoordinateActuatorsAloneCarryTheInverseDynamics) {
+  const Model& m = walker();
+  const auto synth = fixtures::synthesize_trial(m, {});
+  const Storage coords = make_storage("coordinates", coordinate_names(m), synth.markers.time_s, synth.q, false);
+  const Model bare = without_muscles(m);
+  const std::vector<ActuatorSpec> specs = reserves(m, 100);
   const ResolvedActuators acts(bare, specs);
   const StaticOptimizationResult r = static_optimization(bare, coords, nullptr, acts);
   const InverseDynamicsResult id = inverse_dynamics(bare, coords, nullptr);
@@ -101,16 +112,8 @@ TEST(StaticOptimization, TwoActuatorsShareALoadAsTheExponentPrescribes) {
   const Model& m = walker();
   const auto synth = fixtures::synthesize_trial(m, {});
   const Storage coords = make_storage("coordinates", coordinate_names(m), synth.markers.time_s, synth.q, false);
-  Model bare = m;
-  bare.muscles.clear();
-  std::vector<ActuatorSpec> specs;
-  for (const auto& c : m.coordinates) {
-    ActuatorSpec a;
-    a.name = c.name + "_reserve";
-    a.coordinate = c.name;
-    a.optimal_force = 100;
-    specs.push_back(a);
-  }
+  const Model bare = without_muscles(m);
+  std::vector<ActuatorSpec> specs = reserves(m, 100);
   ActuatorSpec strong = specs[static_cast<std::size_t>(m.coordinate_index("knee_angle_r"))];
   strong.name = "knee_angle_r_strong";
   strong.optimal_force = 300;
@@ -141,15 +144,7 @@ TEST(StaticOptimization, MusclesWithReservesMeetTheEqualityWithinBounds) {
   const Model& m = walker();
   const auto synth = fixtures::synthesize_trial(m, {});
   const Storage coords = make_storage("coordinates", coordinate_names(m), synth.markers.time_s, synth.q, false);
-  std::vector<ActuatorSpec> specs;
-  for (const auto& c : m.coordinates) {
-    ActuatorSpec a;
-    a.name = c.name + "_reserve";
-    a.coordinate = c.name;
-    a.optimal_force = 10;  // weak: muscles should do what they can
-    specs.push_back(a);
-  }
-  const ResolvedActuators acts(m, specs);
+  const ResolvedActuators acts(m, reserves(m, 10));  // weak: muscles should do what they can
   StaticOptimizationOptions o;
   o.step_interval = 5;
   const StaticOptimizationResult r = static_optimization(m, coords, nullptr, acts, o);
