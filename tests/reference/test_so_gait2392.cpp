@@ -114,10 +114,8 @@ std::vector<std::string> subject01_so_inputs() {
 // weak residuals): the same problem, so the activations must agree within 0.03 RMS for every muscle
 // active above 0.05, at OpenSim's own frame times.
 TEST(SoGait2392, MatchesOpenSim41OnTheSameInputs) {
-  const std::string pl = refdata::gait2392("pipeline/");
   const std::string act = refdata::shared_path("opensim41-here/SO/subject01_walk1_StaticOptimization_activation.sto");
   const std::string frc = refdata::shared_path("opensim41-here/SO/subject01_walk1_StaticOptimization_force.sto");
-  const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
   for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
   for (const auto& p : {act, frc}) REQUIRE_REFERENCE(p);
   const Subject01So so = subject01_so();
@@ -145,8 +143,6 @@ TEST(SoGait2392, MatchesOpenSim41OnTheSameInputs) {
 // Measured largest imbalance 1.8e-9 N m (the solver's tolerance): the GUIDE's target 1e-3 N m, regression
 // bound 1e-6 N m.
 TEST(SoGait2392, ForcesBalanceInverseDynamicsThroughTheMomentArms) {
-  const std::string pl = refdata::gait2392("pipeline/");
-  const std::string ik = refdata::shared_path("opensim41-here/IK/subject01_walk1_ik.mot");
   for (const auto& p : subject01_so_inputs()) REQUIRE_REFERENCE(p);
   const Subject01So in = subject01_so();
   const Model& m = in.model;
