@@ -254,11 +254,11 @@ json without_inputs(json j) {
 }
 }  // namespace
 
-// tests/services/data/job_before_stage_table.json was written by `cpgait run` before the stage table
+// tests/services/kept/job_before_stage_table.json was written by `cpgait run` before the stage table
 // (commit cdbca5f) with a non-default value in every field; only its absolute input paths were
 // removed. Rerun, it must write the same job.json, and that job.json the same files again.
 TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
-  const std::string kept_path = std::string(CPGAIT_SOURCE_DIR) + "/tests/services/data/job_before_stage_table.json";
+  const std::string kept_path = std::string(CPGAIT_SOURCE_DIR) + "/tests/services/kept/job_before_stage_table.json";
   const std::string kept = cpgait::text::read_file(kept_path);
   const std::string dir = cpgait::refdata::temp_dir("kept_job");
   const TrialInputs in = walker_trial(dir);
