@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "cpgait/capture/ik_setup.h"
+#include "cpgait/capture/marker_file.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/ik/inverse_kinematics.h"
@@ -54,7 +55,7 @@ void run_ik_setup(const std::string& setup_path, const ToolOverrides& o) {
   const std::string model_path = o.model_file(s.setup_dir, s.model_file, setup_path);
   const OsimReadResult mr = read_osim(model_path);
   print_warnings(mr.warnings);
-  const MarkerTrial trial = read_trc(resolve_setup_file(s.setup_dir, s.marker_file, setup_path, "marker_file"));
+  const MarkerTrial trial = read_marker_file(resolve_setup_file(s.setup_dir, s.marker_file, setup_path, "marker_file"));
   print_warnings(trial.warnings);
   Storage reference;
   const bool have_reference = !s.coordinate_file.empty();
@@ -74,17 +75,20 @@ void add_ik_commands(CLI::App& app) {
   // ---- ik
   auto* ik = app.add_subcommand("ik",
                                 "Inverse kinematics: fit the model's coordinates to measured markers, frame by frame.\n"
-                                "Inputs: an .osim model, a .trc marker file (mm, cm or m), optional weights.\n"
+                                "Inputs: an .osim model, a .trc (mm, cm or m) or .c3d marker file, optional weights.\n"
                                 "Outputs in DIR: <name>_ik.mot (angles in degrees, translations in m) and\n"
                                 "<name>_ik_marker_errors.sto (per frame: total squared error m^2, RMS and max error m, the\n"
                                 "worst marker's column position, then each tracked marker's error m).");
   struct IkArgs {
-    std::string model, markers, setup, tasks, marker_set, out, name, bounds = "clamped";
+    std::string model, markers, setup, tasks, marker_set, out, name, bounds = "clamped", c3d_vertical = "z";
     std::vector<double> time;
   };
   auto a = std::make_shared<IkArgs>();
   ik->add_option("--model", a->model, "OpenSim model (.osim), 3.x or 4.x")->required()->check(CLI::ExistingFile);
-  ik->add_option("--markers", a->markers, "marker trajectories (.trc)")->required()->check(CLI::ExistingFile);
+  ik->add_option("--markers", a->markers, "marker trajectories (.trc or .c3d)")->required()->check(CLI::ExistingFile);
+  ik->add_option("--c3d-vertical", a->c3d_vertical, "a .c3d's vertical axis: z (turned to OpenSim's Y-up) or y (as recorded)")
+      ->check(CLI::IsMember({"z", "y"}))
+      ->capture_default_str();
   ik->add_option("--setup", a->setup, "OpenSim IK setup (.xml) whose IKTaskSet and time range are used")
       ->check(CLI::ExistingFile);
   ik->add_option("--tasks", a->tasks, "IK task weights: an IKTaskSet .xml or the .json equivalent")
@@ -101,7 +105,7 @@ void add_ik_commands(CLI::App& app) {
     ro.marker_set_file = a->marker_set;
     const OsimReadResult mr = read_osim(a->model, ro);
     print_warnings(mr.warnings);
-    const MarkerTrial trial = read_trc(a->markers);
+    const MarkerTrial trial = read_marker_file(a->markers, a->c3d_vertical == "y" ? C3dVertical::kY : C3dVertical::kZ);
     print_warnings(trial.warnings);
     IkOptions options;
     options.bounds = parse_bounds(a->bounds);
@@ -116,6 +120,27 @@ void add_ik_commands(CLI::App& app) {
     const std::string name = a->name.empty() ? fs::path(a->markers).stem().string() : a->name;
     run_ik_and_write(mr.model, trial, tasks, options, nullptr, a->out, name + "_ik.mot", name + "_ik_marker_errors.sto",
                      true);
+  });
+
+  // ---- convert
+  auto* convert = app.add_subcommand("convert",
+                                     "Convert a C3D trial for OpenSim: DIR/<name>.trc (mm) with the markers in OpenSim's Y-up frame\n"
+                                     "(a Z-up lab turned -90 deg about X unless --c3d-vertical y). Force plates: to come.");
+  struct ConvertArgs {
+    std::string input, out, c3d_vertical = "z";
+  };
+  auto c = std::make_shared<ConvertArgs>();
+  convert->add_option("input", c->input, "the trial (.c3d)")->required()->check(CLI::ExistingFile);
+  convert->add_option("--c3d-vertical", c->c3d_vertical, "the file's vertical axis: z or y")->check(CLI::IsMember({"z", "y"}))->capture_default_str();
+  convert->add_option("-o,--output", c->out, "output folder")->required();
+  convert->callback([c] {
+    const MarkerTrial trial = read_marker_file(c->input, c->c3d_vertical == "y" ? C3dVertical::kY : C3dVertical::kZ);
+    print_warnings(trial.warnings);
+    ensure_directory(c->out);
+    const std::string trc = (fs::path(c->out) / (fs::path(c->input).stem().string() + ".trc")).string();
+    write_text_atomic(trc, format_trc(trial, "mm"));
+    std::printf("wrote %s (%d markers x %d frames at %g Hz, %zu gaps)\n", trc.c_str(), trial.num_markers(), trial.num_frames(),
+                trial.data_rate_hz, trial.gaps().size());
   });
 
   // ---- demo

@@ -5,7 +5,7 @@
 
 namespace cpgait::services {
 
-void add_ik_commands(CLI::App& app);        // ik, demo
+void add_ik_commands(CLI::App& app);        // ik, convert, demo
 void add_dynamics_commands(CLI::App& app);  // id
 void add_activation_commands(CLI::App& app);  // so, cmc, forward
 void add_model_commands(CLI::App& app);     // model, synth

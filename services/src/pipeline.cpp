@@ -5,6 +5,7 @@
 
 #include "cpgait/capture/external_loads.h"
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/marker_file.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/muscles/scale_muscle_parameters.h"
 #include "output_files.h"
@@ -40,7 +41,7 @@ StageContext open_trial(const TrialInputs& in, const PipelineOptions& options, c
   ro.marker_set_file = in.marker_set_path;
   StageContext trial{in, out_dir, read_osim(in.model_path, ro).model, {}, nullptr, options.time_range_s, {}, {}, nullptr};
   if (!in.generic_model_path.empty()) trial.model = scale_muscle_parameters(trial.model, read_osim(in.generic_model_path).model);
-  if (!in.has_footage()) trial.markers = parse_trc(in.markers, in.markers_name);
+  if (!in.has_footage()) trial.markers = parse_marker_file(in.markers, in.markers_name);
   if (!in.grf.empty() || !in.loads.empty()) {
     if (in.grf.empty()) throw InputError(in.loads_name, 0, "grf", "external loads were given without their GRF data (.mot)");
     if (in.loads.empty()) throw InputError(in.grf_name, 0, "loads", "GRF data were given without the ExternalLoads XML naming the bodies");

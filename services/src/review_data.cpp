@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "cpgait/capture/external_loads.h"
+#include "cpgait/capture/marker_file.h"
 #include "cpgait/capture/storage.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/dynamics/applied_loads.h"
@@ -23,7 +24,7 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
   ro.marker_set_file = marker_set_path;
   const Model model = read_osim(model_path, ro).model;
   const Storage ik = read_storage(ik_mot_path);
-  const MarkerTrial trial = parse_trc(markers_trc, "markers.trc");
+  const MarkerTrial trial = parse_marker_file(markers_trc, "markers");
   std::unique_ptr<AppliedLoads> loads;
   if (!grf_mot.empty()) loads = std::make_unique<AppliedLoads>(model, parse_external_loads(loads_xml, "loads.xml"), parse_storage(grf_mot, "grf.mot"));
 

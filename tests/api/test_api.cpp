@@ -17,6 +17,7 @@
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/fixtures/tag_footage.h"
 #include "cpgait/model/osim_reader.h"
+#include "c3d_writer.h"
 #include "json_schema_check.h"
 #include "server_process.h"
 #include "test_support.h"
@@ -345,6 +346,41 @@ TEST(Api, BadInputMatrix) {
   EXPECT_EQ(body(c.Get("/api/v1/models"))["models"].size(), 1u);  // only the built-in
   // The server survived all of it.
   EXPECT_EQ(c.Get("/healthz")->status, 200);
+  fs::remove_all(dir);
+}
+
+// A lab's C3D as the markers part: read by content, turned Y-up, IK as from the TRC.
+TEST(Api, C3dMarkersUploadRunsLikeItsTrc) {
+  const std::string dir = cpgait::refdata::temp_dir("api_c3d");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  const cpgait::Model m = cpgait::read_osim(cpgait::refdata::fixture("models/walker.osim")).model;
+  cpgait::fixtures::SyntheticTrialOptions o;
+  o.duration_s = 0.5;
+  const cpgait::MarkerTrial trial = cpgait::fixtures::synthesize_trial(m, o).markers;
+  const json options = {{"model", "walker"}, {"stages", {"ik"}}};
+  const std::string from_trc = body(c.Post("/api/v1/trials", trial_form(cpgait::format_trc(trial, "mm"), "walk.trc", options)))["id"];
+  auto posted = c.Post("/api/v1/trials", trial_form(cpgait::testing::format_c3d_z_up(trial), "walk.c3d", options));
+  ASSERT_EQ(posted->status, 202) << posted->body;
+  const std::string from_c3d = body(posted)["id"];
+  ASSERT_EQ(wait_finished(c, from_trc, 60), "done");
+  ASSERT_EQ(wait_finished(c, from_c3d, 60), "done");
+  const json a = body(c.Get(("/api/v1/trials/" + from_trc + "/results/ik").c_str()));
+  const json b = body(c.Get(("/api/v1/trials/" + from_c3d + "/results/ik").c_str()));
+  ASSERT_EQ(a["tables"][0]["labels"], b["tables"][0]["labels"]);
+  double largest = 0;
+  for (std::size_t col = 1; col < a["tables"][0]["columns"].size(); ++col)
+    for (std::size_t r = 0; r < a["tables"][0]["columns"][col].size(); ++r)
+      largest = std::max(largest, std::abs(a["tables"][0]["columns"][col][r].get<double>() - b["tables"][0]["columns"][col][r].get<double>()));
+  EXPECT_LT(largest, 1e-3) << "deg or m";
+  // The review's kinematics read the C3D too.
+  EXPECT_EQ(c.Get(("/api/v1/trials/" + from_c3d + "/kinematics").c_str())->status, 200);
+  // A damaged one is refused with the byte offset.
+  std::string damaged = cpgait::testing::format_c3d_z_up(trial);
+  damaged.resize(damaged.size() / 2);
+  auto refused = c.Post("/api/v1/trials", trial_form(damaged, "walk.c3d", options));
+  EXPECT_EQ(refused->status, 422);
+  EXPECT_NE(body(refused)["error"]["message"].get<std::string>().find("byte"), std::string::npos) << refused->body;
   fs::remove_all(dir);
 }
 

@@ -12,6 +12,7 @@
 #include "cpgait/capture/c3d.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
+#include "c3d_writer.h"
 #include "test_support.h"
 
 using namespace cpgait;
@@ -100,55 +101,7 @@ TEST(C3dReference, ReadsQualisysAndBtsAsTheirParametersState) {
 }
 
 namespace {
-
-// A minimal C3D writer for the round trip: header, one parameter section, points and analog data in
-// the given processor format (84 Intel, 85 DEC, 86 MIPS), floats when scale < 0.
-struct C3dWriter {
-  int processor = 84;
-  std::string out;
-
-  void u8(int v) { out.push_back(static_cast<char>(v & 0xff)); }
-  void i16(int v) {
-    const auto w = static_cast<std::uint16_t>(v);
-    if (processor == 86) u8(w >> 8), u8(w);
-    else u8(w), u8(w >> 8);
-  }
-  void f32(float v) {
-    std::uint32_t w;
-    if (processor == 85) {
-      const float v4 = v * 4.0f;  // DEC: bias 128, hidden bit at 0.1: the IEEE bits of 4v, words swapped
-      std::memcpy(&w, &v4, 4);
-      u8(static_cast<int>(w >> 16)), u8(static_cast<int>(w >> 24)), u8(static_cast<int>(w)), u8(static_cast<int>(w >> 8));
-      return;
-    }
-    std::memcpy(&w, &v, 4);
-    if (processor == 86) u8(static_cast<int>(w >> 24)), u8(static_cast<int>(w >> 16)), u8(static_cast<int>(w >> 8)), u8(static_cast<int>(w));
-    else u8(static_cast<int>(w)), u8(static_cast<int>(w >> 8)), u8(static_cast<int>(w >> 16)), u8(static_cast<int>(w >> 24));
-  }
-  void pad() { out.resize((out.size() + 511) / 512 * 512, '\0'); }
-
-  // One parameter record (group id > 0) with its link to the next.
-  void parameter(int group, const std::string& name, int type, const std::vector<int>& dims, const std::function<void()>& data) {
-    u8(static_cast<int>(name.size())), u8(group);
-    out += name;
-    const std::size_t link = out.size();
-    i16(0);
-    u8(type), u8(static_cast<int>(dims.size()));
-    for (int d : dims) u8(d);
-    data();
-    u8(0);  // no description
-    const int next = static_cast<int>(out.size() - link);
-    const std::string saved = out;
-    out.resize(link);
-    i16(next);
-    out += saved.substr(link + 2);
-  }
-  void group(int id, const std::string& name) {
-    u8(static_cast<int>(name.size())), u8(-id);
-    out += name;
-    i16(3), u8(0);
-  }
-};
+using cpgait::testing::C3dWriter;
 
 // 3 markers x 5 frames, 2 analog channels x 2 samples a frame; marker 1 missing in frame 2.
 std::string synthetic_c3d(int processor, bool floating) {

@@ -11,6 +11,11 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
+#include "c3d_writer.h"
+#include "cpgait/capture/text_lines.h"
+#include "cpgait/capture/marker_file.h"
+#include "cpgait/capture/trc.h"
+#include "cpgait/fixtures/synthetic_trial.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -303,5 +308,52 @@ TEST(Cli, CpgFitThenRun) {
   EXPECT_EQ(e.labels, (std::vector<std::string>{"time", "a", "b"}));
   EXPECT_NE(r.output.find("cycle 0.800 s"), std::string::npos) << r.output;
   EXPECT_EQ(run("cpg fit --patterns " + dir + "/p.sto -o " + dir + "/x.json").status, 2);  // no cycles given
+  fs::remove_all(dir);
+}
+
+// A trial exported as a Z-up lab's C3D runs through IK as its TRC does (the markers turned into
+// OpenSim's Y-up frame), and `cpgait convert` writes that TRC.
+TEST(Cli, IkTakesC3dAsItTakesTrcAndConvertWritesTheTrc) {
+  const std::string dir = cpgait::refdata::temp_dir("cli_c3d");
+  cpgait::fixtures::SyntheticTrialOptions so;
+  so.duration_s = 1.0;
+  so.gap_fraction = 0.1;
+  const cpgait::MarkerTrial trial = cpgait::fixtures::synthesize_trial(cpgait::refdata::walker(), so).markers;
+  std::ofstream(dir + "/walk.trc") << cpgait::format_trc(trial, "mm");
+  std::ofstream(dir + "/walk.c3d", std::ios::binary) << cpgait::testing::format_c3d_z_up(trial);
+  const std::string model = cpgait::refdata::fixture("models/walker.osim");
+  ASSERT_EQ(run("ik --model " + model + " --markers " + dir + "/walk.trc -o " + dir + "/trc").status, 0);
+  const CliRun c3d = run("ik --model " + model + " --markers " + dir + "/walk.c3d -o " + dir + "/c3d");
+  ASSERT_EQ(c3d.status, 0) << c3d.output;
+  const cpgait::Storage a = cpgait::read_storage(dir + "/trc/walk_ik.mot"), b = cpgait::read_storage(dir + "/c3d/walk_ik.mot");
+  ASSERT_EQ(a.num_rows(), b.num_rows());
+  ASSERT_EQ(a.labels, b.labels);
+  // Floats hold the markers to ~1e-5 mm; the coordinates agree far below a degree (degrees or m).
+  EXPECT_LT((a.data - b.data).cwiseAbs().maxCoeff(), 1e-3);
+  std::printf("[ info ] IK from the C3D against the TRC: largest difference %.2e (deg or m)\n", (a.data - b.data).cwiseAbs().maxCoeff());
+  // Read as recorded (--c3d-vertical y) the lab is on its side: IK fits it, but not as the TRC.
+  ASSERT_EQ(run("ik --model " + model + " --markers " + dir + "/walk.c3d --c3d-vertical y -o " + dir + "/sideways").status, 0);
+  EXPECT_GT((a.data - cpgait::read_storage(dir + "/sideways/walk_ik.mot").data).cwiseAbs().maxCoeff(), 10.0);
+  // convert: the TRC, markers as the C3D reads them, gaps kept.
+  const CliRun conv = run("convert " + dir + "/walk.c3d -o " + dir + "/converted");
+  ASSERT_EQ(conv.status, 0) << conv.output;
+  const cpgait::MarkerTrial back = cpgait::read_marker_file(dir + "/converted/walk.trc");
+  ASSERT_EQ(back.marker_names, trial.marker_names);
+  ASSERT_EQ(back.num_frames(), trial.num_frames());
+  EXPECT_EQ(back.gaps().size(), trial.gaps().size());
+  EXPECT_GT(trial.gaps().size(), 0u);
+  const Eigen::Matrix3Xd d = back.positions_m - trial.positions_m;
+  double largest = 0;
+  for (Eigen::Index k = 0; k < d.cols(); ++k)
+    if (trial.positions_m.col(k).allFinite()) largest = std::max(largest, d.col(k).cwiseAbs().maxCoeff());
+  EXPECT_LT(largest, 1e-7) << "m";
+  std::printf("[ info ] converted TRC against the trial: largest marker difference %.2e m\n", largest);
+  // A damaged C3D is refused with the byte and the field.
+  std::string damaged = cpgait::text::read_file(dir + "/walk.c3d");
+  damaged.resize(damaged.size() / 2);
+  std::ofstream(dir + "/damaged.c3d", std::ios::binary) << damaged;
+  const CliRun bad = run("ik --model " + model + " --markers " + dir + "/damaged.c3d -o " + dir + "/bad");
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.output.find("damaged.c3d: data"), std::string::npos) << bad.output;
   fs::remove_all(dir);
 }

@@ -161,7 +161,7 @@ async function uploadView() {
   const fieldError = (name) => h('div', { class: 'field-error', 'data-error-for': name });
   const row = (label, input, name) => h('div', { class: 'row' }, h('label', { for: name }, label), input, fieldError(name));
   const form = h('form', { id: 'upload' },
-    row('Markers (.trc)', h('input', { type: 'file', id: 'markers', name: 'markers', accept: '.trc' }), 'markers'),
+    row('Markers (.trc, .c3d)', h('input', { type: 'file', id: 'markers', name: 'markers', accept: '.trc,.c3d' }), 'markers'),
     h('p', { class: 'muted' }, 'or AprilTag footage: one video per camera, named after its camera in the calibration'),
     row('Videos', h('input', { type: 'file', id: 'videos', name: 'videos', accept: 'video/*,.avi,.mp4,.mkv', multiple: true }), 'videos'),
     row('Calibration (.json, .yml)', h('input', { type: 'file', id: 'calibration', name: 'calibration', accept: '.json,.yml,.yaml,.xml' }), 'calibration'),
