@@ -71,6 +71,32 @@ void run_ik_setup(const std::string& setup_path, const ToolOverrides& o) {
                    name + "_ik_marker_errors.sto", s.report_errors);
 }
 
+namespace {
+// convert: a C3D trial for OpenSim.
+void add_convert_command(CLI::App& app) {
+  auto* convert = app.add_subcommand("convert",
+                                     "Convert a C3D trial for OpenSim: DIR/<name>.trc (mm) with the markers in OpenSim's Y-up frame\n"
+                                     "(a Z-up lab turned -90 deg about X unless --c3d-vertical y). Force plates: to come.");
+  struct ConvertArgs {
+    std::string input, out, c3d_vertical = "z";
+  };
+  auto c = std::make_shared<ConvertArgs>();
+  convert->add_option("input", c->input, "the trial (.c3d)")->required()->check(CLI::ExistingFile);
+  convert->add_option("--c3d-vertical", c->c3d_vertical, "the file's vertical axis: z or y")->check(CLI::IsMember({"z", "y"}))->capture_default_str();
+  convert->add_option("-o,--output", c->out, "output folder")->required();
+  convert->callback([c] {
+    const MarkerTrial trial = read_marker_file(c->input, c->c3d_vertical == "y" ? C3dVertical::kY : C3dVertical::kZ);
+    print_warnings(trial.warnings);
+    ensure_directory(c->out);
+    const std::string trc = (fs::path(c->out) / (fs::path(c->input).stem().string() + ".trc")).string();
+    write_text_atomic(trc, format_trc(trial, "mm"));
+    std::printf("wrote %s (%d markers x %d frames at %g Hz, %zu gaps)\n", trc.c_str(), trial.num_markers(), trial.num_frames(),
+                trial.data_rate_hz, trial.gaps().size());
+  });
+}
+
+}  // namespace
+
 void add_ik_commands(CLI::App& app) {
   // ---- ik
   auto* ik = app.add_subcommand("ik",
@@ -122,26 +148,7 @@ void add_ik_commands(CLI::App& app) {
                      true);
   });
 
-  // ---- convert
-  auto* convert = app.add_subcommand("convert",
-                                     "Convert a C3D trial for OpenSim: DIR/<name>.trc (mm) with the markers in OpenSim's Y-up frame\n"
-                                     "(a Z-up lab turned -90 deg about X unless --c3d-vertical y). Force plates: to come.");
-  struct ConvertArgs {
-    std::string input, out, c3d_vertical = "z";
-  };
-  auto c = std::make_shared<ConvertArgs>();
-  convert->add_option("input", c->input, "the trial (.c3d)")->required()->check(CLI::ExistingFile);
-  convert->add_option("--c3d-vertical", c->c3d_vertical, "the file's vertical axis: z or y")->check(CLI::IsMember({"z", "y"}))->capture_default_str();
-  convert->add_option("-o,--output", c->out, "output folder")->required();
-  convert->callback([c] {
-    const MarkerTrial trial = read_marker_file(c->input, c->c3d_vertical == "y" ? C3dVertical::kY : C3dVertical::kZ);
-    print_warnings(trial.warnings);
-    ensure_directory(c->out);
-    const std::string trc = (fs::path(c->out) / (fs::path(c->input).stem().string() + ".trc")).string();
-    write_text_atomic(trc, format_trc(trial, "mm"));
-    std::printf("wrote %s (%d markers x %d frames at %g Hz, %zu gaps)\n", trc.c_str(), trial.num_markers(), trial.num_frames(),
-                trial.data_rate_hz, trial.gaps().size());
-  });
+  add_convert_command(app);
 
   // ---- demo
   auto* demo = app.add_subcommand("demo",
