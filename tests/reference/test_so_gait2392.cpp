@@ -77,6 +77,7 @@ Comparison compare(const Model& m, const StaticOptimizationResult& r, const Stor
 }
 
 void print(const Comparison& c, const char* who) {
+  std::printf("[ info ] vs %s: %zu muscles active above 0.05\n", who, c.muscles.size());
   for (std::size_t i = 0; i < std::min<std::size_t>(5, c.muscles.size()); ++i)
     std::printf("[ info ] vs %s: worst %zu: %-14s activation RMS difference %.4f\n", who, i + 1, c.muscles[i].second.c_str(),
                 c.muscles[i].first);
