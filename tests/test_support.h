@@ -5,6 +5,9 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
+#include <cstdio>
+#include <sys/wait.h>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -114,6 +117,23 @@ inline std::map<std::string, ColumnDifference> column_differences(const Storage&
   }
   return out;
 }
+
+#ifdef CPGAIT_BINARY
+// The cpgait executable with these arguments: its exit status and everything it printed.
+struct CliRun {
+  int status;
+  std::string output;
+};
+inline CliRun run_cpgait(const std::string& args) {
+  CliRun r{0, ""};
+  FILE* p = popen((std::string(CPGAIT_BINARY) + " " + args + " 2>&1").c_str(), "r");
+  std::array<char, 4096> buf{};
+  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
+  const int s = pclose(p);
+  r.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+  return r;
+}
+#endif
 
 }  // namespace cpgait::refdata
 

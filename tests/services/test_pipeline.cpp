@@ -235,19 +235,8 @@ TEST(PipelineStages, CancellationStopsBeforeTheNextStageAndWritesNoJobJson) {
 }
 
 namespace {
-struct CliRun {
-  int status;
-  std::string output;
-};
-CliRun cli(const std::string& args) {
-  CliRun r{0, ""};
-  FILE* p = popen((std::string(CPGAIT_BINARY) + " " + args + " 2>&1").c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
-  const int s = pclose(p);
-  r.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  return r;
-}
+using cpgait::refdata::CliRun;
+CliRun cli(const std::string& args) { return cpgait::refdata::run_cpgait(args); }
 json without_inputs(json j) {
   j.erase("inputs");
   return j;

@@ -21,20 +21,8 @@
 namespace fs = std::filesystem;
 
 namespace {
-struct CliRun {
-  int status;
-  std::string output;
-};
-CliRun run(const std::string& args) {
-  const std::string cmd = std::string(CPGAIT_BINARY) + " " + args + " 2>&1";
-  CliRun r{0, ""};
-  FILE* p = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
-  const int s = pclose(p);
-  r.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  return r;
-}
+using cpgait::refdata::CliRun;
+CliRun run(const std::string& args) { return cpgait::refdata::run_cpgait(args); }
 }  // namespace
 
 TEST(Cli, HelpStatesInputsOutputsAndUnits) {
