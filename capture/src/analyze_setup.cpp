@@ -33,8 +33,22 @@ AnalyzeSetup read_analyze_setup(const std::string& path) {
     throw InputError(path, d.line_of(tool), "coordinates_file", "the AnalyzeTool setup names no coordinates file");
   for (const auto& a : tool.child("AnalysisSet").child("objects").children()) {
     if (a.type() != pugi::node_element) continue;
-    if (std::string(a.name()) != "StaticOptimization") continue;
+    const std::string kind = a.name();
     if (!d.boolean(a, "on", true)) continue;
+    if (kind == "MuscleAnalysis") {
+      s.has_muscle_analysis = true;
+      s.muscle_analysis_step_interval = static_cast<int>(d.number(a, "step_interval", 1));
+      if (s.muscle_analysis_step_interval < 1) d.fail(a.child("step_interval"), "step_interval must be at least 1");
+      const std::string muscles = d.text(a, "muscle_list"), coords = d.text(a, "moment_arm_coordinate_list");
+      for (auto m : text::split_ws(muscles))
+        if (m != "all") s.muscle_list.emplace_back(m);
+      for (auto c : text::split_ws(coords)) s.moment_arm_coordinates.emplace_back(c);
+      continue;
+    }
+    if (kind != "StaticOptimization") {
+      s.warnings.push_back(path + ":" + std::to_string(d.line_of(a)) + ": analysis <" + kind + "> is not supported; it is not run");
+      continue;
+    }
     s.has_static_optimization = true;
     s.step_interval = static_cast<int>(d.number(a, "step_interval", 1));
     if (s.step_interval < 1) d.fail(a.child("step_interval"), "step_interval must be at least 1");

@@ -49,7 +49,7 @@ void check_moment_arms(const Model& m, int poses) {
     for (int c = 0; c < m.num_coordinates(); ++c) qj[c] = Jet(q[c], c);
     forward_kinematics(m, qj.data(), wj);
     for (std::size_t k = 0; k < m.muscles.size(); ++k) {
-      const Jet L = path_length(m.muscles[k], qj.data(), wj);
+      const Jet L = path_length(m, m.muscles[k], qj.data(), wj);
       EXPECT_NEAR(L.a, g.length_m[k], 1e-12) << m.muscles[k].name;
       for (int c = 0; c < m.num_coordinates(); ++c) {
         EXPECT_NEAR(g.moment_arm_m(k, c), -L.v[c], 1e-10) << m.muscles[k].name << " about " << m.coordinates[c].name;
@@ -58,9 +58,9 @@ void check_moment_arms(const Model& m, int poses) {
         qp[c] += h;
         qm[c] -= h;
         forward_kinematics(m, qp.data(), ws);
-        const double Lp = path_length(m.muscles[k], qp.data(), ws);
+        const double Lp = path_length(m, m.muscles[k], qp.data(), ws);
         forward_kinematics(m, qm.data(), ws);
-        const double Lm = path_length(m.muscles[k], qm.data(), ws);
+        const double Lm = path_length(m, m.muscles[k], qm.data(), ws);
         EXPECT_NEAR(g.moment_arm_m(k, c), -(Lp - Lm) / (2 * h), 1e-7) << m.muscles[k].name << " about " << m.coordinates[c].name;
       }
       EXPECT_NEAR(g.lengthening_speed_m_s[k], -g.moment_arm_m.row(k).dot(qd), 1e-12);
@@ -130,7 +130,7 @@ TEST(MusclePath, ConditionalPointSwitchesWithItsCoordinate) {
   auto length = [&](double k) {
     q[knee] = k;
     forward_kinematics(m, q.data(), ws);
-    return path_length(vas, q.data(), ws);
+    return path_length(m, vas, q.data(), ws);
   };
   // Inside the range the path goes through P2, so it is longer than the straight line P1-P3; outside
   // it is that straight line.

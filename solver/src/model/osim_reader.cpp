@@ -1,5 +1,6 @@
 #include "cpgait/model/osim_reader.h"
 
+#include <cctype>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -20,8 +21,8 @@ bool is(const xml_node& n, const char* name) { return std::string_view(n.name())
 const std::set<std::string> kQuietlySkipped = {
     "FrameGeometry", "attached_geometry", "Appearance", "credits", "publications", "length_units",
     "force_units", "ControllerSet", "ContactGeometrySet", "ProbeSet", "defaults", "ConstraintSet",
-    "ComponentSet", "validator", "assembly_accuracy", "WrapObjectSet", "gravity", "Ground", "BodySet",
-    "JointSet", "MarkerSet", "ForceSet", "components", "visible", "VisibleObject", "WrapObjectSet"};
+    "ComponentSet", "validator", "assembly_accuracy", "gravity", "Ground", "BodySet",
+    "JointSet", "MarkerSet", "ForceSet", "components", "visible", "VisibleObject"};
 
 struct Frame {
   int body = 0;
@@ -106,8 +107,49 @@ class Reader {
     frames_["/bodyset/" + name] = {index, Pose{}};
     frames_[name] = {index, Pose{}};
     for (const auto& c : n.child("components").children("PhysicalOffsetFrame")) pending_frames_.push_back(c);
+    read_wrap_objects(n, index);
   }
   std::vector<xml_node> pending_frames_;
+
+  void read_wrap_objects(const xml_node& body_node, int body) {
+    for (const auto& w : body_node.child("WrapObjectSet").child("objects").children()) {
+      if (w.type() != pugi::node_element) continue;
+      WrapObject o;
+      o.name = w.attribute("name").value();
+      o.body = body;
+      const std::string kind = w.name();
+      if (kind == "WrapCylinder") o.shape = WrapObject::Shape::kCylinder;
+      else if (kind == "WrapSphere") o.shape = WrapObject::Shape::kSphere;
+      else if (kind == "WrapEllipsoid") o.shape = WrapObject::Shape::kEllipsoid;
+      else if (kind == "WrapTorus") o.shape = WrapObject::Shape::kTorus;
+      else d_.fail(w, "unknown wrap object type");
+      if (o.name.empty()) d_.fail(w, kind + " without a name");
+      for (const auto& other : m_.wrap_objects)
+        if (other.name == o.name) d_.fail(w, "wrap object name '" + o.name + "' is used twice");
+      o.pose.translation_m = d_.vec3(w, "translation", Eigen::Vector3d::Zero());
+      o.pose.rotation = rotation_from_body_xyz(d_.vec3(w, "xyz_body_rotation", Eigen::Vector3d::Zero()));
+      o.active = d_.boolean(w, "active", true);
+      o.radius_m = d_.number(w, "radius", 1.0);
+      o.length_m = d_.number(w, "length", 1.0);
+      o.dimensions_m = d_.vec3(w, "dimensions", Eigen::Vector3d::Ones());
+      if (o.radius_m <= 0 || o.length_m < 0 || (o.dimensions_m.array() <= 0).any())
+        d_.fail(w, "radius, length and dimensions must be positive");
+      std::string quadrant = d_.text(w, "quadrant");
+      if (!quadrant.empty() && quadrant[0] == '+') quadrant.erase(0, 1);
+      if (quadrant.empty() || quadrant == "all" || quadrant == "ALL" || quadrant == "All" || quadrant == "Unassigned") {
+        o.quadrant_axis = -1;
+      } else if (quadrant.size() <= 2 && std::string("xyzXYZ").find(quadrant.back()) != std::string::npos &&
+                 (quadrant.size() == 1 || quadrant[0] == '-')) {
+        o.quadrant_axis = (std::tolower(quadrant.back()) - 'x');
+        o.quadrant_sign = quadrant[0] == '-' ? -1 : 1;
+      } else {
+        d_.fail(w.child("quadrant"), "quadrant must be all, x, -x, y, -y, z or -z");
+      }
+      if (o.shape != WrapObject::Shape::kCylinder)
+        warn(w, kind + " is not supported yet: paths that name it are computed without it");
+      m_.wrap_objects.push_back(o);
+    }
+  }
 
   void read_bodies() {
     Body ground;
@@ -115,10 +157,14 @@ class Reader {
     m_.bodies.push_back(ground);
     frames_["/ground"] = {0, Pose{}};
     frames_["ground"] = {0, Pose{}};
+    read_wrap_objects(model_node_.child("Ground"), 0);
     for (const auto& n : model_node_.child("BodySet").child("objects").children("Body")) {
       const std::string name = n.attribute("name").value();
       if (name.empty()) d_.fail(n, "Body without a name");
-      if (name == "ground") continue;  // OpenSim 3.x lists ground as a body
+      if (name == "ground") {  // OpenSim 3.x lists ground as a body
+        read_wrap_objects(n, 0);
+        continue;
+      }
       add_body(n, name);
     }
     for (const auto& n : model_node_.child("BodySet").child("objects").children()) {
@@ -173,7 +219,8 @@ class Reader {
   }
 
   int coordinate_of_axis(const xml_node& ax, const std::vector<std::string>& names, const std::string& joint) {
-    const std::string listed = d_.text(ax, "coordinates");  // cells below view into it
+    // <coordinates> (2.x on), <coordinate> (1.x); the cells below view into `listed`.
+    const std::string listed = ax.child("coordinates") ? d_.text(ax, "coordinates") : d_.text(ax, "coordinate");
     const auto cells = text::split_ws(listed);
     if (cells.empty()) return -1;
     if (cells.size() > 1) d_.fail(ax.child("coordinates"), "functions of several coordinates are not supported");
@@ -191,11 +238,11 @@ class Reader {
       return Function::linear(c[0], c[1]);
     }
     if (kind == "PolynomialFunction") return Function::polynomial(d_.numbers(f, "coefficients"));
-    if (kind == "SimmSpline" || kind == "NaturalCubicSpline" || kind == "PiecewiseLinearFunction" ||
-        kind == "GCVSpline") {
+    if (kind == "SimmSpline" || kind == "NaturalCubicSpline" || kind == "natCubicSpline" ||
+        kind == "PiecewiseLinearFunction" || kind == "GCVSpline") {
       auto x = d_.numbers(f, "x"), y = d_.numbers(f, "y");
       try {
-        if (kind == "NaturalCubicSpline") return Function::natural_cubic_spline(std::move(x), std::move(y));
+        if (kind == "NaturalCubicSpline" || kind == "natCubicSpline") return Function::natural_cubic_spline(std::move(x), std::move(y));
         if (kind == "PiecewiseLinearFunction") return Function::piecewise_linear(std::move(x), std::move(y));
         if (kind == "GCVSpline") warn(f, "GCVSpline approximated by an interpolating cubic spline");
         return Function::simm_spline(std::move(x), std::move(y));
@@ -224,6 +271,20 @@ class Reader {
     j.axes[slot].axis = axis;
     j.axes[slot].coordinate = coordinate;
     j.axes[slot].function = coordinate >= 0 ? Function::linear(1.0, 0.0) : Function::constant(0.0);
+  }
+
+  void read_transform_axis(Joint& j, int slot, const xml_node& ax, const std::vector<std::string>& names) {
+    Eigen::Vector3d axis = d_.vec3(ax, "axis", j.axes[slot].axis);
+    if (axis.norm() < 1e-12) d_.fail(ax.child("axis"), "axis has zero length");
+    axis.normalize();
+    const int c = coordinate_of_axis(ax, names, j.name);
+    j.axes[slot].axis = axis;
+    j.axes[slot].coordinate = c;
+    const xml_node fn = function_node(ax);
+    if (fn) j.axes[slot].function = read_function(fn);
+    else j.axes[slot].function = c >= 0 ? Function::linear(1.0, 0.0) : Function::constant(0.0);
+    if (c < 0 && !j.axes[slot].function.is_constant())
+      j.axes[slot].function = Function::constant(j.axes[slot].function.value(0.0));
   }
 
   void read_joint(const xml_node& n, int child_hint) {
@@ -293,7 +354,17 @@ class Reader {
     // Default layout: rotations about X, Y, Z and translations along X, Y, Z, all constant zero.
     for (int s = 0; s < 6; ++s) set_axis(j, s, s % 3 == 0 ? X : (s % 3 == 1 ? Y : Z), -1);
     const std::string& t = j.type;
-    if (t == "CustomJoint") {
+    if (t == "CustomJoint" && !n.child("SpatialTransform") && n.child("TransformAxisSet")) {
+      // Documents before 10901: a TransformAxisSet whose rotations, in file order, become rotation1..
+      // and whose translations become translation1.., as OpenSim's CustomJoint converts it.
+      int next_rotation = 0, next_translation = 3;
+      for (const auto& ax : n.child("TransformAxisSet").child("objects").children("TransformAxis")) {
+        const bool rotation = d_.boolean(ax, "is_rotation", false);
+        int& next = rotation ? next_rotation : next_translation;
+        if (next >= (rotation ? 3 : 6)) d_.fail(ax, "more than three rotation or translation axes");
+        read_transform_axis(j, next++, ax, names);
+      }
+    } else if (t == "CustomJoint") {
       const xml_node st = n.child("SpatialTransform");
       if (!st) d_.fail(n, "CustomJoint without a SpatialTransform");
       static const char* kSlots[6] = {"rotation1", "rotation2", "rotation3", "translation1", "translation2", "translation3"};
@@ -303,17 +374,7 @@ class Reader {
         for (int s = 0; s < 6; ++s)
           if (an == kSlots[s]) slot = s;
         if (slot < 0) d_.fail(ax, "TransformAxis name must be rotation1..3 or translation1..3");
-        Eigen::Vector3d axis = d_.vec3(ax, "axis", j.axes[slot].axis);
-        if (axis.norm() < 1e-12) d_.fail(ax.child("axis"), "axis has zero length");
-        axis.normalize();
-        const int c = coordinate_of_axis(ax, names, j.name);
-        j.axes[slot].axis = axis;
-        j.axes[slot].coordinate = c;
-        const xml_node fn = function_node(ax);
-        if (fn) j.axes[slot].function = read_function(fn);
-        else j.axes[slot].function = c >= 0 ? Function::linear(1.0, 0.0) : Function::constant(0.0);
-        if (c < 0 && !j.axes[slot].function.is_constant())
-          j.axes[slot].function = Function::constant(j.axes[slot].function.value(0.0));
+        read_transform_axis(j, slot, ax, names);
       }
     } else if (t == "PinJoint") {
       set_axis(j, 0, Z, coord(0));
@@ -358,10 +419,12 @@ class Reader {
     for (const auto& n : model_node_.child("JointSet").child("objects").children())
       if (n.type() == pugi::node_element) read_joint(n, -1);
     for (const auto& b : model_node_.child("BodySet").child("objects").children("Body")) {
-      for (const auto& n : b.child("joint").children()) {
-        if (n.type() != pugi::node_element) continue;
-        read_joint(n, m_.body_index(b.attribute("name").value()));
-      }
+      // 3.x wraps the joint in <Joint>; some 2.x documents spell it <joint>.
+      for (const char* wrapper : {"Joint", "joint"})
+        for (const auto& n : b.child(wrapper).children()) {
+          if (n.type() != pugi::node_element) continue;
+          read_joint(n, m_.body_index(b.attribute("name").value()));
+        }
     }
     for (std::size_t i = 1; i < m_.bodies.size(); ++i)
       if (m_.bodies[i].joint < 0) throw InputError(d_.name(), 0, m_.bodies[i].name, "body '" + m_.bodies[i].name + "' has no joint connecting it to the model");
@@ -433,9 +496,11 @@ class Reader {
   }
 
   void read_path(const xml_node& muscle, Muscle& mu) {
-    const xml_node gp = muscle.child("GeometryPath");
+    // Documents before 20000 keep the points in the muscle itself: MusclePointSet, MuscleWrapSet.
+    const bool legacy = !muscle.child("GeometryPath") && muscle.child("MusclePointSet");
+    const xml_node gp = legacy ? muscle : muscle.child("GeometryPath");
     if (!gp) d_.fail(muscle, "muscle without a GeometryPath");
-    for (const auto& p : gp.child("PathPointSet").child("objects").children()) {
+    for (const auto& p : gp.child(legacy ? "MusclePointSet" : "PathPointSet").child("objects").children()) {
       if (p.type() != pugi::node_element) continue;
       PathPoint pp;
       pp.name = p.attribute("name").value();
@@ -445,16 +510,16 @@ class Reader {
       auto to_body = [&](const Eigen::Vector3d& v) { return Eigen::Vector3d(f.pose.rotation * v + f.pose.translation_m); };
       pp.location_m = to_body(d_.vec3(p, "location", Eigen::Vector3d::Zero()));
       const std::string kind = p.name();
-      if (kind == "PathPoint") {
+      if (kind == "PathPoint" || kind == "MusclePoint") {
         pp.kind = PathPoint::Kind::kFixed;
-      } else if (kind == "ConditionalPathPoint" || kind == "ConditionalViaPoint") {
+      } else if (kind == "ConditionalPathPoint" || kind == "ConditionalViaPoint" || kind == "MuscleViaPoint") {
         pp.kind = PathPoint::Kind::kConditional;
         pp.coordinate = coordinate_from_path(p, "socket_coordinate", "coordinate");
         const auto r = d_.numbers(p, "range");
         if (r.size() != 2) d_.fail(p, "ConditionalPathPoint needs <range>min max</range>");
         pp.range_min = r[0];
         pp.range_max = r[1];
-      } else if (kind == "MovingPathPoint") {
+      } else if (kind == "MovingPathPoint" || kind == "MovingMusclePoint") {
         pp.kind = PathPoint::Kind::kMoving;
         if (!f.pose.rotation.isIdentity() || !f.pose.translation_m.isZero())
           d_.fail(p, "MovingPathPoint on an offset frame is not supported");
@@ -476,8 +541,25 @@ class Reader {
       mu.path.push_back(pp);
     }
     if (mu.path.size() < 2) d_.fail(gp, "a muscle path needs at least 2 points");
-    if (const xml_node wraps = gp.child("PathWrapSet").child("objects"); wraps && wraps.first_child())
-      warn(gp, "wrapping surfaces are not supported; the path ignores them");
+    for (const auto& w : gp.child(legacy ? "MuscleWrapSet" : "PathWrapSet").child("objects").children()) {
+      if (w.type() != pugi::node_element) continue;
+      if (!is(w, "PathWrap") && !is(w, "MuscleWrap")) d_.fail(w, "expected <PathWrap>");
+      const std::string object = d_.text(w, "wrap_object");
+      int index = -1;
+      for (std::size_t k = 0; k < m_.wrap_objects.size(); ++k)
+        if (m_.wrap_objects[k].name == object) index = static_cast<int>(k);
+      if (index < 0) d_.fail(w.child("wrap_object"), "unknown wrap object '" + object + "'");
+      PathWrap pw;
+      pw.wrap_object = index;
+      if (w.child("range")) {
+        const auto r = d_.numbers(w, "range");
+        if (r.size() != 2) d_.fail(w.child("range"), "expected two path point numbers (1-based, -1 for the ends)");
+        pw.start_point = static_cast<int>(r[0]);
+        pw.end_point = static_cast<int>(r[1]);
+      }
+      // Only the cylinder is computed; the reader has warned about the other shapes once each.
+      if (m_.wrap_objects[index].shape == WrapObject::Shape::kCylinder) mu.wraps.push_back(pw);
+    }
   }
 
   void read_forces() {
@@ -494,9 +576,10 @@ class Reader {
       mu.max_isometric_force_N = d_.number(n, "max_isometric_force", 0.0, true);
       mu.optimal_fiber_length_m = d_.number(n, "optimal_fiber_length", 0.0, true);
       mu.tendon_slack_length_m = d_.number(n, "tendon_slack_length", 0.0, true);
-      mu.pennation_angle_at_optimal_rad = d_.number(n, "pennation_angle_at_optimal", 0.0);
+      // 1.x names: pennation_angle, Vmax.
+      mu.pennation_angle_at_optimal_rad = d_.number(n, n.child("pennation_angle_at_optimal") ? "pennation_angle_at_optimal" : "pennation_angle", 0.0);
       mu.sin_pennation_at_optimal = std::sin(mu.pennation_angle_at_optimal_rad);
-      mu.max_contraction_velocity = d_.number(n, "max_contraction_velocity", 10.0);
+      mu.max_contraction_velocity = d_.number(n, n.child("max_contraction_velocity") ? "max_contraction_velocity" : "Vmax", 10.0);
       if (mu.max_isometric_force_N <= 0 || mu.optimal_fiber_length_m <= 0 || mu.tendon_slack_length_m < 0)
         d_.fail(n, "max_isometric_force and optimal_fiber_length must be positive");
       if (type == "Thelen2003Muscle") {

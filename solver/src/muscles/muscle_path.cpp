@@ -27,38 +27,34 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
   };
   Eigen::RowVectorXd dL_dq(nq);
   const Eigen::Map<const Eigen::VectorXd> qdot(qd, nq);
+  std::vector<PathVertex<double>> path;
   for (std::size_t m = 0; m < model.muscles.size(); ++m) {
-    double length = 0;
+    current_path(model, model.muscles[m], q, ws, path);
     dL_dq.setZero();
-    const PathPoint* prev = nullptr;
-    Eigen::Vector3d x_prev = Eigen::Vector3d::Zero();
-    for (const PathPoint& p : model.muscles[m].path) {
-      if (p.kind == PathPoint::Kind::kConditional && !path_point_active(p, q[p.coordinate])) continue;
-      const auto& B = ws.body_in_ground[p.body];
-      const Eigen::Vector3d x = B.rotation * path_point_location(p, q) + B.translation_m;
-      if (prev) {
-        const Eigen::Vector3d d = x - x_prev;
-        const double n = d.norm();
-        length += n;
-        if (n > 0) {
-          const Eigen::Vector3d e = d / n;
-          for (int b = p.body, a = prev->body; a != b;) {
-            if (depth[b] >= depth[a]) {
-              add_chain(b, x, e, +1.0, dL_dq.data());
-              b = parent(b);
-            } else {
-              add_chain(a, x_prev, e, -1.0, dL_dq.data());
-              a = parent(a);
-            }
-          }
-          add_moving(p, e, +1.0, dL_dq.data());
-          add_moving(*prev, e, -1.0, dL_dq.data());
+    // A wrap's surface stretch moves with the surface's body, and the path is a geodesic there, so
+    // its tangent points count as points fixed on that body (their sliding changes the length only
+    // to second order).
+    for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+      const PathVertex<double>& u = path[i];
+      const PathVertex<double>& v = path[i + 1];
+      if (u.wrap >= 0 && v.wrap == u.wrap) continue;
+      const Eigen::Vector3d d = v.x_ground - u.x_ground;
+      const double n = d.norm();
+      if (n == 0) continue;
+      const Eigen::Vector3d e = d / n;
+      for (int b = v.body, a = u.body; a != b;) {
+        if (depth[b] >= depth[a]) {
+          add_chain(b, v.x_ground, e, +1.0, dL_dq.data());
+          b = parent(b);
+        } else {
+          add_chain(a, u.x_ground, e, -1.0, dL_dq.data());
+          a = parent(a);
         }
       }
-      x_prev = x;
-      prev = &p;
+      if (v.point) add_moving(*v.point, e, +1.0, dL_dq.data());
+      if (u.point) add_moving(*u.point, e, -1.0, dL_dq.data());
     }
-    out.length_m[m] = length;
+    out.length_m[m] = current_path_length(path);
     out.moment_arm_m.row(m) = -dL_dq;
     out.lengthening_speed_m_s[m] = dL_dq.dot(qdot);
   }

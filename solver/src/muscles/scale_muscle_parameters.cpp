@@ -14,7 +14,7 @@ std::vector<double> path_lengths_at_default_pose(const Model& model) {
   KinematicsWorkspace<double> ws(model);
   forward_kinematics(model, q.data(), ws);
   std::vector<double> lengths;
-  for (const auto& mu : model.muscles) lengths.push_back(path_length(mu, q.data(), ws));
+  for (const auto& mu : model.muscles) lengths.push_back(path_length(model, mu, q.data(), ws));
   return lengths;
 }
 

@@ -1,6 +1,6 @@
 #pragma once
-// OpenSim's AnalyzeTool setup with a StaticOptimization analysis. Paths as written; `setup_dir` is
-// what they are relative to.
+// OpenSim's AnalyzeTool setup with its StaticOptimization and MuscleAnalysis analyses. Paths as
+// written; `setup_dir` is what they are relative to.
 #include <optional>
 #include <string>
 #include <utility>
@@ -25,6 +25,12 @@ struct AnalyzeSetup {
   double activation_exponent = 2.0;
   bool use_muscle_physiology = true;
   bool use_model_force_set = true;
+  // The MuscleAnalysis (absent when the setup has none).
+  bool has_muscle_analysis = false;
+  int muscle_analysis_step_interval = 1;
+  std::vector<std::string> muscle_list;  // empty: all muscles (OpenSim's "all")
+  std::vector<std::string> moment_arm_coordinates;  // "all": every coordinate
+  std::vector<std::string> warnings;  // analyses that are on but not run, by file and line
 };
 
 AnalyzeSetup read_analyze_setup(const std::string& path);

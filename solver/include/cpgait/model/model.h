@@ -81,6 +81,30 @@ struct PathPoint {
   std::array<Function, 3> moving_functions{Function::constant(0), Function::constant(0), Function::constant(0)};
 };
 
+// A wrapping surface fixed to a body. The shape's own frame W sits at `pose` in the body; a cylinder's
+// axis is W's z, centred at W's origin.
+struct WrapObject {
+  enum class Shape { kCylinder, kSphere, kEllipsoid, kTorus };
+  std::string name;
+  Shape shape = Shape::kCylinder;
+  int body = 0;
+  Pose pose;  // W in the body frame
+  double radius_m = 1.0;   // cylinder and sphere (OpenSim's default 1 m)
+  double length_m = 1.0;   // cylinder: tangent points beyond +-length/2 on both ends mean no wrap
+  Eigen::Vector3d dimensions_m = Eigen::Vector3d::Ones();  // ellipsoid radii
+  int quadrant_axis = -1;  // -1: all quadrants; else 0,1,2 = x,y,z of W
+  int quadrant_sign = 0;   // +1 or -1 with quadrant_axis
+  bool active = true;
+};
+
+// One wrapping surface a path may wrap over, between path points start..end (1-based as OpenSim's
+// <range>; -1 means the path's first or last point).
+struct PathWrap {
+  int wrap_object = 0;
+  int start_point = -1;
+  int end_point = -1;
+};
+
 struct Muscle {
   std::string name;
   std::string type;  // Thelen2003Muscle, Millard2012EquilibriumMuscle, ...
@@ -102,6 +126,7 @@ struct Muscle {
   double min_control = 0.01;
   double max_control = 1.0;
   std::vector<PathPoint> path;
+  std::vector<PathWrap> wraps;  // in the order OpenSim applies them
 };
 
 class Model {
@@ -114,6 +139,7 @@ class Model {
   std::vector<Coordinate> coordinates;
   std::vector<Marker> markers;
   std::vector<Muscle> muscles;
+  std::vector<WrapObject> wrap_objects;
 
   int num_coordinates() const { return static_cast<int>(coordinates.size()); }
   int body_index(std::string_view name) const;

@@ -1,16 +1,19 @@
 #pragma once
 // Musculotendon path geometry: the active path points (conditional points switch on their
-// coordinate's range, moving points follow their functions), path length, lengthening speed and
-// moment arms r = -dL/dq.
+// coordinate's range, moving points follow their functions), wrapping surfaces, path length,
+// lengthening speed and moment arms r = -dL/dq.
 //
 // path_length<T> runs on any scalar (Ceres Jets differentiate it exactly); muscle_path_geometry
 // computes the same derivative analytically from the motion subspace for speed, and the tests hold
 // the two equal.
 #include <Eigen/Core>
+#include <cmath>
+#include <limits>
 #include <vector>
 
 #include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/model/model.h"
+#include "cpgait/muscles/wrap_cylinder.h"
 
 namespace cpgait {
 
@@ -29,21 +32,137 @@ Eigen::Matrix<T, 3, 1> path_point_location(const PathPoint& p, const T* q) {
   return loc;
 }
 
+// A point of the path as it currently runs: an active path point, or a tangent point where the path
+// meets or leaves a wrapping surface (it moves with the surface's body).
 template <typename T>
-T path_length(const Muscle& muscle, const T* q, const KinematicsWorkspace<T>& ws) {
+struct PathVertex {
+  int body = 0;
+  Eigen::Matrix<T, 3, 1> x_ground;
+  const PathPoint* point = nullptr;  // nullptr for a tangent point
+  int path_index = -1;               // the point's index in Muscle::path
+  int wrap = -1;                     // tangent points: index in Muscle::wraps
+  T surface_length_m = T(0.0);       // on a wrap's first tangent point: the length over the surface to the second
+};
+
+// Length along a current path: straight between points, over the surface between a wrap's two points.
+template <typename T>
+T current_path_length(const std::vector<PathVertex<T>>& path) {
   using std::sqrt;
   T length(0.0);
-  bool have_previous = false;
-  Eigen::Matrix<T, 3, 1> previous;
-  for (const PathPoint& p : muscle.path) {
+  for (std::size_t i = 0; i + 1 < path.size(); ++i)
+    length += (path[i].wrap >= 0 && path[i + 1].wrap == path[i].wrap) ? path[i].surface_length_m
+                                                                      : T(sqrt((path[i + 1].x_ground - path[i].x_ground).squaredNorm()));
+  return length;
+}
+
+// OpenSim's GeometryPath::applyWrapObjects: each wrap, in order, wraps the segment of its range that
+// must wrap (the first that cuts the surface) or else lengthens the path least; with two or more
+// wraps, repeated until the length settles (0.5 mm, at most 8 passes) as OpenSim does.
+template <typename T>
+void current_path(const Model& model, const Muscle& muscle, const T* q, const KinematicsWorkspace<T>& ws,
+                  std::vector<PathVertex<T>>& path) {
+  using std::sqrt;
+  using V3 = Eigen::Matrix<T, 3, 1>;
+  path.clear();
+  for (std::size_t k = 0; k < muscle.path.size(); ++k) {
+    const PathPoint& p = muscle.path[k];
     if (p.kind == PathPoint::Kind::kConditional && !path_point_active(p, scalar_value(q[p.coordinate]))) continue;
     const auto& B = ws.body_in_ground[p.body];
-    const Eigen::Matrix<T, 3, 1> x = B.rotation * path_point_location(p, q) + B.translation_m;
-    if (have_previous) length += sqrt((x - previous).squaredNorm());
-    previous = x;
-    have_previous = true;
+    PathVertex<T> v;
+    v.body = p.body;
+    v.x_ground = B.rotation * path_point_location(p, q) + B.translation_m;
+    v.point = &p;
+    v.path_index = static_cast<int>(k);
+    path.push_back(v);
   }
-  return length;
+  const int nw = static_cast<int>(muscle.wraps.size());
+  if (nw == 0) return;
+  auto remove_wrap = [&](int w) {
+    for (std::size_t j = 0; j < path.size(); ++j)
+      if (path[j].wrap == w) {
+        path.erase(path.begin() + j, path.begin() + j + 2);
+        return;
+      }
+  };
+  std::vector<int> order(nw), result(nw, 0);
+  for (int i = 0; i < nw; ++i) order[i] = i;
+  double last_length = std::numeric_limits<double>::infinity();
+  const int passes = nw < 2 ? 1 : 8;
+  const int n_points = static_cast<int>(muscle.path.size());
+  for (int pass = 0; pass < passes; ++pass) {
+    for (int i = 0; i < nw; ++i) {
+      const int w = order[i];
+      const PathWrap& pw = muscle.wraps[w];
+      const WrapObject& obj = model.wrap_objects[pw.wrap_object];
+      result[i] = 0;
+      remove_wrap(w);
+      if (!obj.active) continue;
+      // The range's first and last active points, found in the current path.
+      const int first = pw.start_point < 1 ? 0 : pw.start_point - 1;
+      const int last = pw.end_point < 1 ? n_points - 1 : pw.end_point - 1;
+      int start = -1, end = -1;
+      for (int j = 0; j < static_cast<int>(path.size()); ++j) {
+        const int k = path[j].path_index;
+        if (path[j].point && k >= first && k <= last) {
+          if (start < 0) start = j;
+          end = j;
+        }
+      }
+      if (start < 0) continue;
+      // The wrap surface's frame W in ground.
+      const auto& B = ws.body_in_ground[obj.body];
+      const Eigen::Matrix<T, 3, 3> R_GW = B.rotation * obj.pose.rotation.cast<T>();
+      const V3 o_GW = B.rotation * obj.pose.translation_m.cast<T>() + B.translation_m;
+      SegmentWrap<T> best;
+      int best_after = -1;
+      double least_change = std::numeric_limits<double>::infinity();
+      for (int j = start; j < end; ++j) {
+        if (path[j].wrap >= 0 && path[j].wrap == path[j + 1].wrap) continue;
+        const V3 a = R_GW.transpose() * (path[j].x_ground - o_GW), b = R_GW.transpose() * (path[j + 1].x_ground - o_GW);
+        const SegmentWrap<T> sw = wrap_cylinder(obj, a, b);
+        result[i] = static_cast<int>(sw.status);
+        if (sw.status == WrapStatus::kMandatoryWrap) {
+          best = sw;
+          best_after = j;
+          break;
+        }
+        if (sw.status == WrapStatus::kWrapped) {
+          const double change = scalar_value(T(sqrt((sw.r1 - a).squaredNorm())) + sw.surface_length_m +
+                                             T(sqrt((b - sw.r2).squaredNorm())) - T(sqrt((b - a).squaredNorm())));
+          if (change < least_change) {
+            least_change = change;
+            best = sw;
+            best_after = j;
+          }
+        }
+      }
+      if (best_after < 0) continue;
+      PathVertex<T> t1, t2;
+      t1.body = t2.body = obj.body;
+      t1.wrap = t2.wrap = w;
+      t1.x_ground = R_GW * best.r1 + o_GW;
+      t2.x_ground = R_GW * best.r2 + o_GW;
+      t1.surface_length_m = best.surface_length_m;
+      path.insert(path.begin() + best_after + 1, {t1, t2});
+    }
+    const double L = scalar_value(current_path_length(path));
+    if (std::abs(L - last_length) < 0.0005) break;
+    last_length = L;
+    // OpenSim's retry: the first surface missed and the second enclosed a point, so swap the two.
+    if (pass == 0 && nw > 1 && result[0] == static_cast<int>(WrapStatus::kNoWrap) &&
+        result[1] == static_cast<int>(WrapStatus::kInsideRadius)) {
+      order[0] = 1;
+      order[1] = 0;
+      remove_wrap(0);
+    }
+  }
+}
+
+template <typename T>
+T path_length(const Model& model, const Muscle& muscle, const T* q, const KinematicsWorkspace<T>& ws) {
+  std::vector<PathVertex<T>> path;
+  current_path(model, muscle, q, ws, path);
+  return current_path_length(path);
 }
 
 struct MusclePathGeometry {

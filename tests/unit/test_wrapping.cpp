@@ -1,0 +1,202 @@
+// Wrapping surfaces: the cylinder's geodesic against a hand-computed case, OpenSim's quadrant rule,
+// moment arms against -dL/dq on arm26 (four wrap cylinders), and the models OpenSim's own tests use.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/kinematics/motion_subspace.h"
+#include "cpgait/muscles/muscle_path.h"
+#include "cpgait/muscles/wrap_cylinder.h"
+#include "test_support.h"
+
+namespace cpgait {
+namespace {
+
+WrapObject cylinder(double radius, double length, int quadrant_axis = -1, int quadrant_sign = 0) {
+  WrapObject c;
+  c.radius_m = radius;
+  c.length_m = length;
+  c.quadrant_axis = quadrant_axis;
+  c.quadrant_sign = quadrant_sign;
+  return c;
+}
+
+// A line passing below the axis (y = -h) from x = -x0 to x = +x0, rising from z1 to z2: unrolled, the
+// path is one straight line of horizontal extent 2 d + R phi, d = sqrt(rho^2 - R^2) each side and
+// phi = pi - 2 atan(h / x0) - 2 acos(R / rho) the arc under the axis.
+TEST(WrapCylinder, AStraightLineOverACylinderHasTheGeodesicsLength) {
+  const double R = 0.02, x0 = 0.1, h = 0.005, z1 = -0.01, z2 = 0.03;
+  const Eigen::Vector3d p1(-x0, -h, z1), p2(x0, -h, z2);
+  const SegmentWrap<double> w = wrap_cylinder(cylinder(R, 1.0), p1, p2);
+  ASSERT_EQ(w.status, WrapStatus::kMandatoryWrap);
+  const double rho = std::hypot(x0, h), d = std::sqrt(rho * rho - R * R);
+  const double phi = M_PI - 2 * std::atan(h / x0) - 2 * std::acos(R / rho);
+  const double expected = std::hypot(2 * d + R * phi, z2 - z1);
+  const double got = (w.r1 - p1).norm() + w.surface_length_m + (p2 - w.r2).norm();
+  EXPECT_NEAR(got, expected, 1e-14);
+  // Tangent points on the surface, under the axis, rising at the path's one slope.
+  EXPECT_NEAR(w.r1.head<2>().norm(), R, 1e-15);
+  EXPECT_NEAR(w.r2.head<2>().norm(), R, 1e-15);
+  EXPECT_LT(w.r1.y(), 0);
+  EXPECT_LT(w.r2.y(), 0);
+  const double slope = (z2 - z1) / (2 * d + R * phi);
+  EXPECT_NEAR((w.r1.z() - z1) / d, slope, 1e-13);
+  EXPECT_NEAR((w.r2.z() - w.r1.z()) / (R * phi), slope, 1e-13);
+  // The straight parts are tangent: perpendicular to the radius at their tangent point.
+  EXPECT_NEAR((w.r1 - p1).head<2>().dot(w.r1.head<2>()), 0, 1e-15);
+  EXPECT_NEAR((p2 - w.r2).head<2>().dot(w.r2.head<2>()), 0, 1e-15);
+}
+
+TEST(WrapCylinder, WrapsOnlyWhereOpenSimDoes) {
+  const WrapObject free_cylinder = cylinder(0.02, 0.1);
+  // A segment that misses the cylinder, one with an end inside it, and one whose tangent points lie
+  // beyond the cylinder's ends.
+  EXPECT_EQ(wrap_cylinder(free_cylinder, Eigen::Vector3d(-0.1, 0.03, 0), Eigen::Vector3d(0.1, 0.03, 0)).status,
+            WrapStatus::kNoWrap);
+  EXPECT_EQ(wrap_cylinder(free_cylinder, Eigen::Vector3d(-0.1, 0.0, 0), Eigen::Vector3d(0.01, 0.0, 0)).status,
+            WrapStatus::kInsideRadius);
+  EXPECT_EQ(wrap_cylinder(free_cylinder, Eigen::Vector3d(-0.1, 0.001, 0.2), Eigen::Vector3d(0.1, 0.001, 0.3)).status,
+            WrapStatus::kNoWrap);
+  // Constrained to +y: a segment on the +y side that misses does not wrap; one that passes the axis
+  // on the -y side without touching, from +y to -y, wraps over the +y side all the same.
+  const WrapObject plus_y = cylinder(0.02, 0.1, 1, +1);
+  EXPECT_EQ(wrap_cylinder(plus_y, Eigen::Vector3d(-0.1, 0.03, 0), Eigen::Vector3d(0.1, 0.03, 0)).status,
+            WrapStatus::kNoWrap);
+  const Eigen::Vector3d p1(-0.1, 0.01, 0), p2(0.1, -0.06, 0);
+  const SegmentWrap<double> w = wrap_cylinder(plus_y, p1, p2);
+  ASSERT_EQ(w.status, WrapStatus::kWrapped);
+  EXPECT_GT(w.r1.y(), 0);
+  EXPECT_GT(w.r2.y(), 0);
+  EXPECT_EQ(wrap_cylinder(free_cylinder, p1, p2).status, WrapStatus::kNoWrap);
+}
+
+// arm26: three triceps heads and the brachialis over the elbow's cylinder, the long head also over
+// the glenoid's (constrained to +x).
+std::string arm26() { return refdata::shared_path("opensim/opensim-core-tests/Analyze/arm26.osim"); }
+
+bool wraps_now(const Model& m, int muscle, const Eigen::VectorXd& q) {
+  KinematicsWorkspace<double> ws(m);
+  forward_kinematics(m, q.data(), ws);
+  std::vector<PathVertex<double>> path;
+  current_path(m, m.muscles[muscle], q.data(), ws, path);
+  return path.size() > m.muscles[muscle].path.size();
+}
+
+// Largest |analytic moment arm - (-dL/dq by central differences)| over the muscles and coordinates.
+double moment_arm_error(const Model& m, const Eigen::VectorXd& q) {
+  KinematicsWorkspace<double> ws(m);
+  MotionSubspace S(m);
+  MusclePathGeometry g(m);
+  const Eigen::VectorXd qd = Eigen::VectorXd::Zero(m.num_coordinates());
+  forward_kinematics(m, q.data(), ws);
+  motion_subspace(m, q.data(), ws, S);
+  muscle_path_geometry(m, q.data(), qd.data(), ws, S, g);
+  double worst = 0;
+  const double h = 1e-6;
+  for (int c = 0; c < m.num_coordinates(); ++c) {
+    Eigen::VectorXd qp = q, qm = q;
+    qp[c] += h;
+    qm[c] -= h;
+    for (std::size_t k = 0; k < m.muscles.size(); ++k) {
+      forward_kinematics(m, qp.data(), ws);
+      const double lp = path_length(m, m.muscles[k], qp.data(), ws);
+      forward_kinematics(m, qm.data(), ws);
+      const double lm = path_length(m, m.muscles[k], qm.data(), ws);
+      worst = std::max(worst, std::abs(g.moment_arm_m(k, c) + (lp - lm) / (2 * h)));
+    }
+  }
+  return worst;
+}
+
+TEST(WrapCylinder, Arm26MomentArmsEqualMinusTheLengthsDerivative) {
+  REQUIRE_REFERENCE(arm26());
+  const OsimReadResult r = read_osim(arm26());
+  const Model& m = r.model;
+  int wrapping = 0;
+  for (const auto& mu : m.muscles) wrapping += mu.wraps.empty() ? 0 : 1;
+  ASSERT_EQ(wrapping, 4);  // the triceps heads and brachialis over cylinders (the ellipsoids are not computed yet)
+  std::mt19937 rng(7);
+  int wrapped_poses = 0;
+  double worst = 0;
+  for (int trial = 0; trial < 100; ++trial) {
+    const Eigen::VectorXd q = refdata::random_pose(m, rng);
+    wrapped_poses += wraps_now(m, m.muscles.size() - 1, q) ? 1 : 0;
+    worst = std::max(worst, moment_arm_error(m, q));
+  }
+  std::printf("arm26, 100 random poses (brachialis wrapped in %d): max |r + dL/dq| %.2e m\n", wrapped_poses, worst);
+  EXPECT_GT(wrapped_poses, 10);
+  EXPECT_LT(wrapped_poses, 90);
+  EXPECT_LT(worst, 1e-6);
+  // Where the brachialis' path just meets the elbow's cylinder: bisect the elbow angle to 1e-9 rad and
+  // check either side. Its length is continuous there and so is its moment arm.
+  Eigen::VectorXd q = m.default_coordinates();
+  const int elbow = m.coordinate_index("r_elbow_flex"), bra = static_cast<int>(m.muscles.size()) - 1;
+  ASSERT_EQ(m.muscles[bra].name, "BRA");
+  double lo = 0.0, hi = 2.2;
+  q[elbow] = lo;
+  const bool wraps_lo = wraps_now(m, bra, q);
+  q[elbow] = hi;
+  ASSERT_NE(wraps_lo, wraps_now(m, bra, q)) << "the brachialis should meet its cylinder between 0 and 2.2 rad";
+  while (hi - lo > 1e-9) {
+    q[elbow] = 0.5 * (lo + hi);
+    (wraps_now(m, bra, q) == wraps_lo ? lo : hi) = q[elbow];
+  }
+  std::printf("brachialis meets the cylinder at elbow %.6f rad\n", lo);
+  for (double dq : {-1e-4, -1e-5, 1e-5, 1e-4}) {
+    q[elbow] = lo + dq;
+    EXPECT_LT(moment_arm_error(m, q), 1e-6) << "elbow " << q[elbow];
+  }
+}
+
+// Every model OpenSim's own tests and examples ship loads, in every document version, and nothing
+// among the components this issue calls for is reported unsupported.
+TEST(OsimReader, EveryReferenceModelLoads) {
+  const std::string root = refdata::shared_path("opensim");
+  REQUIRE_REFERENCE(root);
+  int models = 0;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(root)) {
+    if (e.path().extension() != ".osim") continue;
+    ++models;
+    OsimReadResult r;
+    ASSERT_NO_THROW(r = read_osim(e.path().string())) << e.path();
+    EXPECT_GT(r.model.bodies.size(), 1u) << e.path();
+    for (const auto& w : r.warnings) {
+      EXPECT_EQ(w.find("WrapCylinder"), std::string::npos) << w;
+      EXPECT_EQ(w.find("no joint"), std::string::npos) << w;
+      EXPECT_EQ(w.find("Thelen2003Muscle"), std::string::npos) << w;
+      EXPECT_EQ(w.find("Millard2012EquilibriumMuscle"), std::string::npos) << w;
+    }
+  }
+  std::printf("%d models read\n", models);
+  EXPECT_GE(models, 30);
+}
+
+// The 1.x document (TransformAxisSet joints, muscles holding their own MusclePointSet) reads as the
+// same mechanism: its joint axes and the knee's coupled translations as OpenSim converts them.
+TEST(OsimReader, A1xDocumentReadsItsTransformAxesAndMusclePoints) {
+  const std::string path = refdata::shared_path("opensim/opensim-core-tests/Analyze/subject01_simbody.osim");
+  REQUIRE_REFERENCE(path);
+  const Model m = read_osim(path).model;
+  EXPECT_EQ(m.muscles.size(), 54u);
+  EXPECT_EQ(m.num_coordinates(), 23);
+  const Joint& knee = m.joints[m.joint_index("knee_r")];
+  ASSERT_GE(knee.axes[0].coordinate, 0);
+  EXPECT_EQ(m.coordinates[knee.axes[0].coordinate].name, "knee_angle_r");
+  // Its first translation follows the spline the file gives (x = -2.0944 -> y = -0.0032).
+  EXPECT_EQ(m.coordinates[knee.axes[3].coordinate].name, "knee_angle_r");
+  EXPECT_NEAR(knee.axes[3].function.value(-2.09439510), -0.0032, 1e-12);
+  EXPECT_NEAR(knee.axes[4].function.value(-2.09439510), -0.4226, 1e-12);
+  const Joint& pelvis = m.joints[m.joint_index("ground_pelvis")];
+  EXPECT_EQ(m.coordinates[pelvis.axes[0].coordinate].name, "pelvis_tilt");
+  EXPECT_TRUE(pelvis.axes[0].axis.isApprox(Eigen::Vector3d::UnitZ()));
+  EXPECT_EQ(m.coordinates[pelvis.axes[5].coordinate].name, "pelvis_tz");
+  for (const auto& mu : m.muscles) EXPECT_GE(mu.path.size(), 2u) << mu.name;
+  EXPECT_NEAR(m.muscles[0].optimal_fiber_length_m, 0.0535, 1e-12);
+  EXPECT_NEAR(m.muscles[0].pennation_angle_at_optimal_rad, 0.13962634, 1e-12);
+}
+
+}  // namespace
+}  // namespace cpgait
