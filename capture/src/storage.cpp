@@ -1,5 +1,6 @@
 #include "cpgait/capture/storage.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -103,7 +104,7 @@ Storage parse_storage(std::string_view content, const std::string& name,
 
   std::vector<double> values;
   values.reserve(std::min<std::size_t>(L.size() - li, n_rows < 0 ? 0 : n_rows) * cols);
-  std::size_t rows = 0;
+  std::size_t rows = 0, repeated = 0;
   for (++li; li < L.size(); ++li) {
     if (text::trim(L[li]).empty()) continue;
     const auto cells = text::split_ws(L[li]);
@@ -119,11 +120,20 @@ Storage parse_storage(std::string_view content, const std::string& name,
         throw fail(li, table.labels[c], "expected a number, found '" + std::string(cells[c]) + "'");
       values.push_back(v);
     }
-    if (rows > 0 && !(values[rows * cols] > values[(rows - 1) * cols]))
+    if (rows > 0 && !(values[rows * cols] > values[(rows - 1) * cols])) {
+      // OpenSim writes a simulation's last state twice (equal to its printed digits, not always to the
+      // last one); such a repeat carries nothing new.
+      const auto same = [](double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(a)); };
+      if (std::equal(values.end() - cols, values.end(), values.end() - 2 * cols, same)) {
+        values.resize(values.size() - cols);
+        ++repeated;
+        continue;
+      }
       throw fail(li, table.labels[0], "time does not increase");
+    }
     ++rows;
   }
-  if (n_rows >= 0 && static_cast<long long>(rows) < n_rows)
+  if (n_rows >= 0 && static_cast<long long>(rows + repeated) < n_rows)
     throw fail(L.size() - 1, "nRows",
                "file ends after " + std::to_string(rows) + " rows but the header says " + std::to_string(n_rows) +
                    " (truncated file?)");

@@ -88,8 +88,14 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   trial.name = name;
 
   // Lines 2 and 3: header keys and their values.
-  const auto keys = split_trc(L[1]);
-  const auto values = split_trc(L[2]);
+  // Tab-separated cells keep empty optional values in place; when the two rows disagree (OpenSim's
+  // tutorial files put two tabs between values), runs of tabs and spaces separate them instead.
+  auto keys = split_trc(L[1]);
+  auto values = split_trc(L[2]);
+  if (keys.size() != values.size()) {
+    keys = text::split_ws(L[1]);
+    values = text::split_ws(L[2]);
+  }
   std::map<std::string, std::string> header;
   for (std::size_t i = 0; i < keys.size(); ++i) {
     const std::string key = lower(text::trim(keys[i]));
@@ -155,15 +161,19 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   // Reserve from the file size, not the header, so a lying NumFrames cannot allocate unbounded memory.
   pos.reserve(std::min<std::size_t>(L.size() - first, static_cast<std::size_t>(num_frames_header)) *
               3 * num_markers);
+  bool extra_cells_warned = false;
   for (std::size_t li = first; li < L.size(); ++li) {
     if (text::trim(L[li]).empty()) continue;  // blank lines at the end
     auto cells = split_trc(L[li]);
     while (cells.size() > expected_cells && text::trim(cells.back()).empty()) cells.pop_back();
     const int line_index = static_cast<int>(li);
-    if (cells.size() > expected_cells)
-      throw fail(line_index, "",
-                 "expected " + std::to_string(expected_cells) + " cells (Frame#, Time, 3 per marker), found " +
-                     std::to_string(cells.size()));
+    if (cells.size() > expected_cells) {
+      if (!extra_cells_warned)
+        trial.warnings.push_back(name + ":" + std::to_string(li + 1) + ": " + std::to_string(cells.size() - expected_cells) +
+                                 " cell(s) beyond the listed markers' columns are ignored");
+      extra_cells_warned = true;
+      cells.resize(expected_cells);
+    }
     if (cells.size() < expected_cells) {
       const std::size_t m = cells.size() < 2 ? 0 : (cells.size() - 2) / 3;
       throw fail(line_index, m < trial.marker_names.size() ? trial.marker_names[m] : "Time",
@@ -172,7 +182,9 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
     }
     long long frame;
     double frame_d;
-    if (!text::parse_int(cells[0], frame)) {
+    if (text::trim(cells[0]).empty()) {
+      frame = trial.frame_numbers.empty() ? 1 : trial.frame_numbers.back() + 1;  // a writer that leaves Frame# blank
+    } else if (!text::parse_int(cells[0], frame)) {
       // Some writers put the frame number as a float.
       if (!text::parse_double(cells[0], frame_d))
         throw fail(line_index, "Frame#", "expected a frame number, found '" + std::string(cells[0]) + "'");
@@ -209,11 +221,8 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   const int frames = trial.num_frames();
   if (frames == 0) throw fail(static_cast<int>(L.size()) - 1, "", "no data rows after the header");
   // Compared as doubles: a hostile header's NumFrames may not fit in an int.
-  if (frames < num_frames_header)
-    throw fail(static_cast<int>(L.size()) - 1, "NumFrames",
-               "file ends after " + std::to_string(frames) + " frames but the header says " +
-                   std::to_string(static_cast<long long>(num_frames_header)) + " (truncated file?)");
-  if (frames > num_frames_header)
+  // As OpenSim: the rows are the data; a header that disagrees is reported, not obeyed.
+  if (frames != num_frames_header)
     trial.warnings.push_back(name + ": NumFrames says " +
                              std::to_string(static_cast<long long>(num_frames_header)) + " but " +
                              std::to_string(frames) + " rows were read");

@@ -254,6 +254,41 @@ TEST(ExternalLoads, UnknownBodyOrColumnNamesTheXmlLine) {
   EXPECT_THROW(AppliedLoads(walker(), one, data), InputError);
 }
 
+// OpenSim matches an identifier to the first three columns that begin with it: gait10dof18musc's
+// GRF file names its torques ground_torque_x/_y/_z, which "ground_torque" and "ground_torque_" both
+// name, as OpenSim accepts either.
+TEST(ExternalLoads, IdentifiersMatchColumnsAsOpenSimMatchesThem) {
+  const std::string grf = refdata::shared_path("opensim/gait10dof18musc/ExperimentalData/subject01_walk_grf.mot");
+  REQUIRE_REFERENCE(grf);
+  const Storage data = read_storage(grf);
+  auto torques = [&](const std::string& torque_identifier) {
+    ExternalLoadsSpec spec;
+    spec.file = "loads.xml";
+    ExternalForceSpec f;
+    f.name = "right";
+    f.applied_to_body = walker().bodies[1].name;
+    f.force_identifier = "ground_force_v";
+    f.point_identifier = "ground_force_p";
+    f.torque_identifier = torque_identifier;
+    spec.forces.push_back(f);
+    const AppliedLoads loads(walker(), spec, data);
+    KinematicsWorkspace<double> ws(walker());
+    const Eigen::VectorXd q = walker().default_coordinates();
+    forward_kinematics(walker(), q.data(), ws);
+    std::vector<AppliedLoads::Sample> out;
+    loads.forces_at(0.8, ws, out);
+    return out.at(0);
+  };
+  const auto a = torques("ground_torque_"), b = torques("ground_torque");
+  EXPECT_EQ(a.torque_Nm, b.torque_Nm);
+  EXPECT_GT(a.torque_Nm.norm(), 0.0);
+  const int row = std::lower_bound(data.time().data(), data.time().data() + data.num_rows(), 0.8) - data.time().data();
+  ASSERT_NEAR(data.time()[row], 0.8, 1e-9);
+  EXPECT_DOUBLE_EQ(a.torque_Nm.y(), data.data(row, refdata::required_column(data, "ground_torque_y")));
+  EXPECT_DOUBLE_EQ(a.force_N.y(), data.data(row, refdata::required_column(data, "ground_force_vy")));
+  EXPECT_THROW(torques("ground_torques"), InputError);
+}
+
 // The mass matrix two ways: the composite-rigid-body algorithm, and columns of RNEA with unit
 // accelerations at zero speed (M e_i = ID(q, 0, e_i) - ID(q, 0, 0)).
 TEST(Crba, MatchesUnitAccelerationsThroughRnea) {

@@ -100,3 +100,24 @@ TEST(StorageReference, RoundTripsOpenSimsIdOutput) {
   EXPECT_EQ(back.labels, s.labels);
   EXPECT_EQ((back.data - s.data).cwiseAbs().maxCoeff(), 0.0);
 }
+
+// OpenSim writes a simulation's final state twice (same time, same values): read once, as OpenSim
+// reads it. A repeated time with other values is still an error.
+TEST(StorageReference, ReadsOpenSimsRepeatedFinalRow) {
+  const std::string path = refdata::shared_path("opensim/opensim-core-tests/CMC/gait10dof18musc_subject_adjusted_Kinematics_q.sto");
+  REQUIRE_REFERENCE(path);
+  const Storage s = read_storage(path);
+  const int n = s.num_rows();
+  ASSERT_GT(n, 2);
+  EXPECT_NEAR(s.time()[n - 1], 2.499, 1e-12);
+  EXPECT_GT(s.time()[n - 1], s.time()[n - 2]);
+
+  std::string twice = kSto;
+  const std::size_t last = twice.rfind('\n', twice.size() - 2) + 1;
+  const std::string last_row = twice.substr(last);
+  const Storage once = parse_storage(twice + last_row, "twice.sto");
+  EXPECT_EQ(once.num_rows(), parse_storage(kSto, "once.sto").num_rows());
+  std::string other = last_row;
+  other.replace(other.rfind('\t') + 1, std::string::npos, "42\n");
+  EXPECT_EQ(expect_error(twice + other).field(), "time");
+}

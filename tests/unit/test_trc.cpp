@@ -118,8 +118,6 @@ TEST(Trc, ErrorsNameFileLineAndField) {
   EXPECT_EQ(e.line(), 7);
   EXPECT_EQ(e.field(), "B");
 
-  e = expect_error(two_marker_trc("mm", kRows, 5));  // header promises more frames
-  EXPECT_EQ(e.field(), "NumFrames");
 
   e = expect_error(two_marker_trc("mm", "1\t0.00\t1\t2\t3\t4\t5\t6\n2\t0.00\t1\t2\t3\t4\t5\t6\n", 2));
   EXPECT_EQ(e.field(), "Time");
@@ -133,6 +131,48 @@ TEST(Trc, ErrorsNameFileLineAndField) {
   EXPECT_EQ(e.field(), "PathFileType");
   e = expect_error(std::string(kHeader));
   EXPECT_NE(std::string(e.what()).find("header"), std::string::npos);
+}
+
+// The quirks of files as labs and OpenSim's own tutorials have them; each is accepted as OpenSim
+// accepts it.
+TEST(Trc, HeaderValuesSeparatedByRunsOfTabs) {
+  // The header lines of OpenSim's tutorial files (e.g. its gait tutorial's walking trial).
+  const std::string trc =
+      "PathFileType\t4\t(X/Y/Z)\twalk.trc\n"
+      "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames\n"
+      "100.0\t\t100.0\t\t3\t\t2\t\tmm\t\t100.0\t\t1\t\t3\n"
+      "Frame#\tTime\tA\t\t\tB\t\t\n\t\tX1\tY1\tZ1\tX2\tY2\tZ2\n\n" +
+      std::string(kRows);
+  const MarkerTrial t = parse_trc(trc, "walk.trc");
+  EXPECT_DOUBLE_EQ(t.data_rate_hz, 100.0);
+  EXPECT_DOUBLE_EQ(t.camera_rate_hz, 100.0);
+  EXPECT_EQ(t.num_frames(), 3);
+  EXPECT_DOUBLE_EQ(t.position_m(2, 1).z(), 0.007);
+}
+
+TEST(Trc, RowsDecideTheFrameCountAndTheHeaderIsReported) {
+  const MarkerTrial more = parse_trc(two_marker_trc("mm", kRows, 5), "short.trc");
+  EXPECT_EQ(more.num_frames(), 3);
+  ASSERT_EQ(more.warnings.size(), 1u);
+  EXPECT_NE(more.warnings[0].find("NumFrames says 5 but 3 rows"), std::string::npos) << more.warnings[0];
+  const MarkerTrial fewer = parse_trc(two_marker_trc("mm", kRows, 2), "long.trc");
+  EXPECT_EQ(fewer.num_frames(), 3);
+  EXPECT_EQ(fewer.warnings.size(), 1u);
+}
+
+TEST(Trc, NamesWithSpacesAndDotsBlankFrameNumbersAndTrailingCells) {
+  const std::string trc = std::string(kHeader) + "100\t100\t2\t2\tmm\t100\t1\t2\n" +
+                          "Frame#\tTime\tR.Heel Lat\t\t\tL.ASIS\t\t\t\n\t\tX1\tY1\tZ1\tX2\tY2\tZ2\n\n" +
+                          "\t0.00\t1\t2\t3\t4\t5\t6\t99\n"
+                          "\t0.01\t1\t2\t3\t4\t5\t6\t99\n";
+  const MarkerTrial t = parse_trc(trc, "lab.trc");
+  ASSERT_EQ(t.marker_names.size(), 2u);
+  EXPECT_EQ(t.marker_names[0], "R.Heel Lat");
+  EXPECT_EQ(t.marker_names[1], "L.ASIS");
+  EXPECT_EQ(t.frame_numbers, (std::vector<int>{1, 2}));
+  EXPECT_DOUBLE_EQ(t.position_m(1, 1).x(), 0.004);
+  ASSERT_EQ(t.warnings.size(), 1u);  // the trailing cells, once
+  EXPECT_NE(t.warnings[0].find("beyond the listed markers"), std::string::npos);
 }
 
 TEST(Trc, WriteThenReadRoundTrips) {

@@ -2,6 +2,7 @@
 // External loads (ground reaction forces) resolved against a model and a data table: per frame,
 // the spatial force each body receives.
 #include <Eigen/Core>
+#include <array>
 #include <vector>
 
 #include "cpgait/capture/external_loads.h"
@@ -33,7 +34,7 @@ class AppliedLoads {
  private:
   struct Force {
     int body, force_frame, point_frame;  // body indices; 0 = ground
-    int force_col, point_col, torque_col;  // first of three columns; -1 when absent
+    std::array<int, 3> force_cols, point_cols, torque_cols;  // x, y, z columns; [0] is -1 when absent
   };
   std::vector<Force> forces_;
   Storage data_;
