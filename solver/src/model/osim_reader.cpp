@@ -566,6 +566,9 @@ class Reader {
     for (const auto& n : model_node_.child("ForceSet").child("objects").children()) {
       if (n.type() != pugi::node_element) continue;
       const std::string type = n.name();
+      // The model's actuators reach SO, CMC and the Forward tool through the actuator set reader
+      // (capture/actuator_set.h), which reads them from the same ForceSet.
+      if (type == "CoordinateActuator" || type == "PointActuator" || type == "TorqueActuator") continue;
       if (type != "Thelen2003Muscle" && type != "Millard2012EquilibriumMuscle") {
         warn(n, "force type not supported yet; ignored");
         continue;
