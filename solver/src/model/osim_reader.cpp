@@ -145,7 +145,7 @@ class Reader {
       } else {
         d_.fail(w.child("quadrant"), "quadrant must be all, x, -x, y, -y, z or -z");
       }
-      if (o.shape != WrapObject::Shape::kCylinder)
+      if (o.shape != WrapObject::Shape::kCylinder && o.shape != WrapObject::Shape::kEllipsoid)
         warn(w, kind + " is not supported yet: paths that name it are computed without it");
       m_.wrap_objects.push_back(o);
     }
@@ -557,8 +557,14 @@ class Reader {
         pw.start_point = static_cast<int>(r[0]);
         pw.end_point = static_cast<int>(r[1]);
       }
-      // Only the cylinder is computed; the reader has warned about the other shapes once each.
-      if (m_.wrap_objects[index].shape == WrapObject::Shape::kCylinder) mu.wraps.push_back(pw);
+      const std::string method = d_.text(w, "method");
+      if (method == "midpoint") pw.method = PathWrap::Method::kMidpoint;
+      else if (method == "axial") pw.method = PathWrap::Method::kAxial;
+      else if (!method.empty() && method != "hybrid" && method != "Unassigned")
+        d_.fail(w.child("method"), "method must be hybrid, midpoint or axial");
+      // Cylinders and ellipsoids are computed; the reader has warned about the other shapes once each.
+      const auto shape = m_.wrap_objects[index].shape;
+      if (shape == WrapObject::Shape::kCylinder || shape == WrapObject::Shape::kEllipsoid) mu.wraps.push_back(pw);
     }
   }
 

@@ -31,15 +31,20 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
   for (std::size_t m = 0; m < model.muscles.size(); ++m) {
     current_path(model, model.muscles[m], q, ws, path);
     dL_dq.setZero();
+    double length = 0;
     // A wrap's surface stretch moves with the surface's body, and the path is a geodesic there, so
     // its tangent points count as points fixed on that body (their sliding changes the length only
     // to second order).
     for (std::size_t i = 0; i + 1 < path.size(); ++i) {
       const PathVertex<double>& u = path[i];
       const PathVertex<double>& v = path[i + 1];
-      if (u.wrap >= 0 && v.wrap == u.wrap) continue;
+      if (u.wrap >= 0 && v.wrap == u.wrap) {
+        length += u.surface_length_m;
+        continue;
+      }
       const Eigen::Vector3d d = v.x_ground - u.x_ground;
       const double n = d.norm();
+      length += n;
       if (n == 0) continue;
       const Eigen::Vector3d e = d / n;
       for (int b = v.body, a = u.body; a != b;) {
@@ -54,7 +59,7 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
       if (v.point) add_moving(*v.point, e, +1.0, dL_dq.data());
       if (u.point) add_moving(*u.point, e, -1.0, dL_dq.data());
     }
-    out.length_m[m] = current_path_length(path);
+    out.length_m[m] = length;
     out.moment_arm_m.row(m) = -dL_dq;
     out.lengthening_speed_m_s[m] = dL_dq.dot(qdot);
   }

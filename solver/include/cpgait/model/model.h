@@ -100,7 +100,9 @@ struct WrapObject {
 // One wrapping surface a path may wrap over, between path points start..end (1-based as OpenSim's
 // <range>; -1 means the path's first or last point).
 struct PathWrap {
+  enum class Method { kHybrid, kMidpoint, kAxial };  // how an ellipsoid picks its wrapping plane
   int wrap_object = 0;
+  Method method = Method::kHybrid;
   int start_point = -1;
   int end_point = -1;
 };

@@ -9,11 +9,13 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/model/model.h"
 #include "cpgait/muscles/wrap_cylinder.h"
+#include "cpgait/muscles/wrap_ellipsoid.h"
 
 namespace cpgait {
 
@@ -43,6 +45,27 @@ struct PathVertex {
   int wrap = -1;                     // tangent points: index in Muscle::wraps
   T surface_length_m = T(0.0);       // on a wrap's first tangent point: the length over the surface to the second
 };
+
+// One segment over one surface. The ellipsoid's construction is iterative and in doubles: on a Jet
+// its tangent points stay fixed on the surface's body, which is how its moment arms are defined.
+template <typename T>
+SegmentWrap<T> wrap_segment(const WrapObject& obj, PathWrap::Method method, const Eigen::Matrix<T, 3, 1>& a,
+                            const Eigen::Matrix<T, 3, 1>& b) {
+  if (obj.shape == WrapObject::Shape::kCylinder) return wrap_cylinder(obj, a, b);
+  if constexpr (std::is_same_v<T, double>) {
+    return wrap_ellipsoid(obj, method, a, b);
+  } else {
+    const Eigen::Vector3d av(scalar_value(a[0]), scalar_value(a[1]), scalar_value(a[2]));
+    const Eigen::Vector3d bv(scalar_value(b[0]), scalar_value(b[1]), scalar_value(b[2]));
+    const SegmentWrap<double> w = wrap_ellipsoid(obj, method, av, bv);
+    SegmentWrap<T> out;
+    out.status = w.status;
+    out.r1 = w.r1.cast<T>();
+    out.r2 = w.r2.cast<T>();
+    out.surface_length_m = T(w.surface_length_m);
+    return out;
+  }
+}
 
 // Length along a current path: straight between points, over the surface between a wrap's two points.
 template <typename T>
@@ -119,7 +142,7 @@ void current_path(const Model& model, const Muscle& muscle, const T* q, const Ki
       for (int j = start; j < end; ++j) {
         if (path[j].wrap >= 0 && path[j].wrap == path[j + 1].wrap) continue;
         const V3 a = R_GW.transpose() * (path[j].x_ground - o_GW), b = R_GW.transpose() * (path[j + 1].x_ground - o_GW);
-        const SegmentWrap<T> sw = wrap_cylinder(obj, a, b);
+        const SegmentWrap<T> sw = wrap_segment(obj, pw.method, a, b);
         result[i] = static_cast<int>(sw.status);
         if (sw.status == WrapStatus::kMandatoryWrap) {
           best = sw;
