@@ -35,6 +35,14 @@ AnalyzeSetup read_analyze_setup(const std::string& path) {
     if (a.type() != pugi::node_element) continue;
     const std::string kind = a.name();
     if (!d.boolean(a, "on", true)) continue;
+    if (kind == "InverseDynamics") {
+      s.has_inverse_dynamics = true;
+      if (d.boolean(a, "use_model_force_set", true))
+        s.warnings.push_back(path + ":" + std::to_string(d.line_of(a)) +
+                             ": InverseDynamics: use_model_force_set is true, but the model's forces are not subtracted: "
+                             "the output is the net generalized forces");
+      continue;
+    }
     if (kind == "MuscleAnalysis") {
       s.has_muscle_analysis = true;
       s.muscle_analysis_step_interval = static_cast<int>(d.number(a, "step_interval", 1));

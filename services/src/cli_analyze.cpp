@@ -1,5 +1,5 @@
-// AnalyzeTool setups: StaticOptimization (cli_activation.cpp) and MuscleAnalysis, written as OpenSim
-// writes them.
+// AnalyzeTool setups: StaticOptimization (cli_activation.cpp), InverseDynamics (cli_dynamics.cpp) and
+// MuscleAnalysis, written as OpenSim writes them.
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
@@ -73,9 +73,10 @@ void run_muscle_analysis_setup(const std::string& setup_path, const AnalyzeSetup
 void run_analyze_setup(const std::string& setup_path, const ToolOverrides& o) {
   const AnalyzeSetup s = read_analyze_setup(setup_path);
   for (const auto& w : s.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  if (!s.has_static_optimization && !s.has_muscle_analysis)
+  if (!s.has_static_optimization && !s.has_muscle_analysis && !s.has_inverse_dynamics)
     throw InputError(setup_path, 0, "AnalysisSet",
-                     "the AnalyzeTool setup has no analysis cpgait runs that is on (StaticOptimization, MuscleAnalysis)");
+                     "the AnalyzeTool setup has no analysis cpgait runs that is on (StaticOptimization, InverseDynamics, MuscleAnalysis)");
+  if (s.has_inverse_dynamics) run_id_analysis(setup_path, o);
   if (s.has_static_optimization) run_so_setup(setup_path, o);
   if (s.has_muscle_analysis) run_muscle_analysis_setup(setup_path, s, o);
 }

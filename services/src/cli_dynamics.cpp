@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "commands.h"
+#include "cpgait/capture/analyze_setup.h"
 #include "cpgait/capture/id_setup.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
@@ -52,6 +53,18 @@ void run_id_setup(const std::string& setup_path, const ToolOverrides& o) {
   const std::string dir = o.results_dir(s.setup_dir, s.results_directory);
   const std::string file = s.output_gen_force_file.empty() ? "inverse_dynamics.sto" : s.output_gen_force_file;
   run_id(in, (fs::path(dir) / file).string());
+}
+
+void run_id_analysis(const std::string& setup_path, const ToolOverrides& o) {
+  const AnalyzeSetup s = read_analyze_setup(setup_path);
+  IdInputs in;
+  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
+  in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
+  in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
+  in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
+  in.options.time_range_s = s.time_range_s;
+  const std::string dir = o.results_dir(s.setup_dir, s.results_directory);
+  run_id(in, (fs::path(dir) / ((s.name.empty() ? "analyze" : s.name) + "_InverseDynamics.sto")).string());
 }
 
 void add_dynamics_commands(CLI::App& app) {

@@ -20,6 +20,8 @@ struct ToolOverrides;  // setup_files.h
 // Runners for OpenSim setups, with the command line's overrides.
 void run_ik_setup(const std::string& setup_path, const ToolOverrides& o);
 void run_id_setup(const std::string& setup_path, const ToolOverrides& o);
+// An AnalyzeTool setup's InverseDynamics analysis: <results>/<name>_InverseDynamics.sto.
+void run_id_analysis(const std::string& setup_path, const ToolOverrides& o);
 void run_analyze_setup(const std::string& setup_path, const ToolOverrides& o);  // AnalyzeTool: SO and MuscleAnalysis
 void run_so_setup(const std::string& setup_path, const ToolOverrides& o);       // AnalyzeTool + StaticOptimization
 void run_cmc_setup(const std::string& setup_path, const ToolOverrides& o);      // CMCTool

@@ -1,5 +1,5 @@
 #pragma once
-// OpenSim's AnalyzeTool setup with its StaticOptimization and MuscleAnalysis analyses. Paths as
+// OpenSim's AnalyzeTool setup with its StaticOptimization, InverseDynamics and MuscleAnalysis analyses. Paths as
 // written; `setup_dir` is what they are relative to.
 #include <optional>
 #include <string>
@@ -25,6 +25,8 @@ struct AnalyzeSetup {
   double activation_exponent = 2.0;
   bool use_muscle_physiology = true;
   bool use_model_force_set = true;
+  // The InverseDynamics analysis (absent when the setup has none).
+  bool has_inverse_dynamics = false;
   // The MuscleAnalysis (absent when the setup has none).
   bool has_muscle_analysis = false;
   int muscle_analysis_step_interval = 1;
