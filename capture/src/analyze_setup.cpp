@@ -22,7 +22,6 @@ AnalyzeSetup read_analyze_setup(const std::string& path) {
   if (s.results_directory.empty()) s.results_directory.push_back('.');
   s.coordinates_file = d.text(tool, "coordinates_file");
   s.external_loads_file = d.text(tool, "external_loads_file");
-  if (s.external_loads_file == "Unassigned") s.external_loads_file.clear();
   s.lowpass_cutoff_hz = d.number(tool, "lowpass_cutoff_frequency_for_coordinates", -1);
   if (tool.child("initial_time") || tool.child("final_time"))
     s.time_range_s = std::make_pair(d.number(tool, "initial_time", 0.0), d.number(tool, "final_time", 1e30));

@@ -32,7 +32,6 @@ void read_tool_common(const xml::Document& d, const pugi::xml_node& tool, std::s
   t1 = d.number(tool, "final_time", 0.0, true);
   if (!(t1 > t0)) d.fail(tool.child("final_time"), "final_time must be after initial_time");
   loads = d.text(tool, "external_loads_file");
-  if (loads == "Unassigned") loads.clear();
 }
 
 }  // namespace
@@ -119,7 +118,6 @@ CmcSetup read_cmc_setup(const std::string& path) {
   s.task_set_file = d.text(tool, "task_set_file");
   if (s.task_set_file.empty()) d.fail(tool, "the CMC setup names no task_set_file");
   s.constraints_file = d.text(tool, "constraints_file");
-  if (s.constraints_file == "Unassigned") s.constraints_file.clear();
   s.lowpass_cutoff_hz = d.number(tool, "lowpass_cutoff_frequency", -1);
   s.cmc_time_window_s = d.number(tool, "cmc_time_window", 0.01);
   if (!(s.cmc_time_window_s > 0 && s.cmc_time_window_s <= 0.5)) d.fail(tool.child("cmc_time_window"), "expected 0 < window <= 0.5 s");

@@ -16,7 +16,6 @@ IdSetup read_id_setup(const std::string& path) {
   s.model_file = d.text(tool, "model_file");
   s.coordinates_file = d.text(tool, "coordinates_file");
   s.external_loads_file = d.text(tool, "external_loads_file");
-  if (s.external_loads_file == "Unassigned") s.external_loads_file.clear();
   s.results_directory = d.text(tool, "results_directory", std::string(1, '.'));
   if (s.results_directory.empty()) s.results_directory.push_back('.');
   s.output_gen_force_file = d.text(tool, "output_gen_force_file");

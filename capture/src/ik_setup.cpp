@@ -68,7 +68,6 @@ IkSetup read_ik_setup(const std::string& path) {
   s.model_file = d.text(tool, "model_file");
   s.marker_file = d.text(tool, "marker_file");
   s.coordinate_file = d.text(tool, "coordinate_file");
-  if (s.coordinate_file == "Unassigned") s.coordinate_file.clear();
   // An empty results_directory means the setup's folder, as a missing one does.
   s.results_directory = d.text(tool, "results_directory", std::string(1, '.'));
   if (s.results_directory.empty()) s.results_directory.push_back('.');

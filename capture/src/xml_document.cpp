@@ -39,10 +39,18 @@ void Document::fail(const pugi::xml_node& node, const std::string& message) cons
   throw InputError(name_, line_of(node), node.name(), message);
 }
 
+pugi::xml_node first_element(const pugi::xml_node& parent) {
+  for (const auto& c : parent.children())
+    if (c.type() == pugi::node_element) return c;
+  return {};
+}
+
+std::string_view tool_alias(std::string_view tag) { return tag == "InverseKinemtaticsTool" ? "InverseKinematicsTool" : tag; }
+
 pugi::xml_node Document::tool(const char* name) const {
   pugi::xml_node root = doc_->document_element();
-  if (std::string_view(root.name()) == "OpenSimDocument") root = root.child(name);
-  if (!root || std::string_view(root.name()) != name)
+  if (std::string_view(root.name()) == "OpenSimDocument") root = first_element(root);
+  if (!root || tool_alias(root.name()) != name)
     throw InputError(name_, 1, name, std::string("not an OpenSim ") + name + " setup: no <" + name + ">");
   return root;
 }
@@ -97,7 +105,8 @@ bool Document::boolean(const pugi::xml_node& parent, const char* child, bool fal
 std::string Document::text(const pugi::xml_node& parent, const char* child, const std::string& fallback) const {
   const auto node = parent.child(child);
   if (!node) return fallback;
-  return std::string(text::trim(node.child_value()));
+  const std::string_view value = text::trim(node.child_value());
+  return value == "Unassigned" ? fallback : std::string(value);  // OpenSim's "not set"
 }
 
 Eigen::Vector3d Document::vec3(const pugi::xml_node& parent, const char* child,

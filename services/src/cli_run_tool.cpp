@@ -27,8 +27,8 @@ void add_run_tool_command(CLI::App& app) {
   rt->callback([a] {
     const auto d = xml::Document::load_file(a->setup);
     auto root = d.doc().document_element();
-    if (std::string(root.name()) == "OpenSimDocument") root = root.first_child();
-    const std::string tool = root.name();
+    if (std::string(root.name()) == "OpenSimDocument") root = xml::first_element(root);
+    const std::string tool(xml::tool_alias(root.name()));
     if (tool == "InverseKinematicsTool") return run_ik_setup(a->setup, a->o);
     if (tool == "InverseDynamicsTool") return run_id_setup(a->setup, a->o);
     if (tool == "AnalyzeTool") return run_analyze_setup(a->setup, a->o);

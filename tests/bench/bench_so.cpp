@@ -1,4 +1,4 @@
-// Static optimization throughput on one thread with all 92 muscles: frames per second.
+// Static optimization throughput on one thread: gait2392 (92 muscles) and arm26 (wrapping). Frames per second.
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
@@ -29,3 +29,25 @@ static void BM_SoGait2392Subject01(benchmark::State& state) {
   state.counters["frames/s"] = benchmark::Counter(frames, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_SoGait2392Subject01)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+// arm26 (six muscles over four wrap cylinders and two ellipsoids), OpenSim's SO test setup's inputs:
+// the IK motion at 6 Hz, no external loads, the model's own actuators.
+static void BM_SoArm26Wrapping(benchmark::State& state) {
+  const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/opensim-core-tests/Analyze/";
+  if (!std::filesystem::exists(base + "arm26.osim")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/opensim-core-tests/Analyze");
+    return;
+  }
+  const Model model = read_osim(base + "arm26.osim").model;
+  const ResolvedActuators acts(model, read_actuators(base + "arm26.osim"));
+  const Storage coords = read_storage(base + "arm26_InverseKinematics.mot");
+  StaticOptimizationOptions o;
+  o.lowpass_cutoff_hz = 6;
+  int frames = 0;
+  for (auto _ : state) {
+    const StaticOptimizationResult r = static_optimization(model, coords, nullptr, acts, o);
+    frames += r.summary.frames;
+  }
+  state.counters["frames/s"] = benchmark::Counter(frames, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_SoArm26Wrapping)->Unit(benchmark::kMillisecond)->MinTime(1.0);

@@ -45,14 +45,6 @@ TEST(Function, SimmSplineReproducesACubicExactly) {
   for (double t = 0.0; t < 1.8; t += 0.01) EXPECT_NEAR(f.value(t), 0.5 * t * t * t - t + 2, 1e-12);
 }
 
-TEST(Function, NaturalSplineHasZeroCurvatureAtTheEnds) {
-  const Function f = Function::natural_cubic_spline(kX, kY);
-  for (std::size_t i = 0; i < kX.size(); ++i) EXPECT_NEAR(f.value(kX[i]), kY[i], 1e-14);
-  EXPECT_NEAR(f.second_derivative(kX.front()), 0.0, 1e-12);
-  EXPECT_NEAR(f.second_derivative(kX.back() - 1e-12), 0.0, 1e-9);
-  expect_derivatives_consistent(f, -2.0, 2.0);
-}
-
 TEST(Function, LinearExtrapolationOutsideTheKnots) {
   const Function f = Function::simm_spline(kX, kY);
   const double slope = f.derivative(kX.back());

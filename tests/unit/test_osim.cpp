@@ -3,6 +3,7 @@
 #include <pugixml.hpp>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/xml_document.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/osim_reader.h"
 #include "test_support.h"
@@ -84,6 +85,34 @@ TEST(Osim, ReadsOpenSim3Documents) {
   EXPECT_NEAR(p.y(), 1.05, 1e-12);
   ASSERT_EQ(r.warnings.size(), 1u);  // the unsupported force is reported, not dropped
   EXPECT_NE(r.warnings[0].find("CoordinateLimitForce"), std::string::npos);
+}
+
+// OpenSim 4 registers NaturalCubicSpline as another name of SimmSpline, so a knee translation given
+// as one takes the SimmSpline's values (not a natural spline's, which differ between the knots).
+TEST(Osim, NaturalCubicSplineIsReadAsOpenSimReadsIt) {
+  const std::vector<double> x{-2.0944, -1.2217, -0.5236, -0.3491, -0.1745, 0.1591, 2.0944};
+  const std::vector<double> y{-0.4226, -0.4082, -0.399, -0.3976, -0.3966, -0.3953, -0.396};
+  auto cells = [](const std::vector<double>& v) {
+    std::string s;
+    for (double e : v) s += std::to_string(e) + " ";
+    return s;
+  };
+  const std::string doc = R"(<OpenSimDocument Version="20302"><Model name="knee"><BodySet><objects>
+  <Body name="ground"/>
+  <Body name="tibia"><mass>3</mass><Joint><CustomJoint name="knee"><parent_body>ground</parent_body>
+    <CoordinateSet><objects><Coordinate name="knee_angle"><range>-2 0.1</range></Coordinate></objects></CoordinateSet>
+    <SpatialTransform>
+     <TransformAxis name="rotation1"><coordinates>knee_angle</coordinates><axis>0 0 1</axis></TransformAxis>
+     <TransformAxis name="translation2"><function><NaturalCubicSpline><x>)" +
+                          cells(x) + "</x><y>" + cells(y) + R"(</y></NaturalCubicSpline></function>
+       <coordinates>knee_angle</coordinates><axis>0 1 0</axis></TransformAxis>
+    </SpatialTransform></CustomJoint></Joint></Body>
+ </objects></BodySet></Model></OpenSimDocument>)";
+  const Model m = parse_osim(doc, "knee.osim").model;
+  const Function simm = Function::simm_spline(x, y);
+  const TransformAxis& ty = m.joints[0].axes[4];
+  ASSERT_EQ(ty.coordinate, 0);
+  for (double q = -2.0; q <= 0.1; q += 0.05) EXPECT_NEAR(ty.function.value(q), simm.value(q), 1e-15) << q;
 }
 
 TEST(Osim, MalformedInputNamesLineAndElement) {
@@ -176,4 +205,20 @@ TEST(OsimReference, ReadsMillardMuscles) {
     ++compared;
   }
   EXPECT_EQ(compared, 92);
+}
+
+// Setups as OpenSim's own files spell them: a comment before the tool, and the IK tests'
+// "InverseKinemtaticsTool".
+TEST(SetupDocuments, ToolFoundUnderOpenSimsOwnSpellings) {
+  const auto d = xml::Document::load_string(
+      "<OpenSimDocument Version=\"20302\">\n<!-- made by hand -->\n<InverseKinemtaticsTool name=\"subject01\">"
+      "<model_file>m.osim</model_file></InverseKinemtaticsTool></OpenSimDocument>",
+      "ik.xml");
+  const auto tool = d.tool("InverseKinematicsTool");
+  EXPECT_EQ(d.text(tool, "model_file"), "m.osim");
+  EXPECT_THROW(d.tool("InverseDynamicsTool"), InputError);
+  // OpenSim writes "Unassigned" for a property not set: read as absent.
+  const auto u = xml::Document::load_string("<IKTool><marker_file>Unassigned</marker_file><x> a </x></IKTool>", "u.xml");
+  EXPECT_EQ(u.text(u.doc().document_element(), "marker_file", "none"), "none");
+  EXPECT_EQ(u.text(u.doc().document_element(), "x"), "a");
 }

@@ -101,40 +101,6 @@ Function Function::simm_spline(std::vector<double> x, std::vector<double> y) {
   return f;
 }
 
-Function Function::natural_cubic_spline(std::vector<double> x, std::vector<double> y) {
-  check_knots(x, y);
-  const int n = static_cast<int>(x.size());
-  if (n < 3) return piecewise_linear(std::move(x), std::move(y));
-  // Second derivatives M_i with M_0 = M_{n-1} = 0 (Thomas algorithm).
-  std::vector<double> h(n - 1), M(n, 0.0), diag(n, 0.0), rhs(n, 0.0);
-  for (int i = 0; i < n - 1; ++i) h[i] = x[i + 1] - x[i];
-  for (int i = 1; i < n - 1; ++i) {
-    diag[i] = 2.0 * (h[i - 1] + h[i]);
-    rhs[i] = 6.0 * ((y[i + 1] - y[i]) / h[i] - (y[i] - y[i - 1]) / h[i - 1]);
-  }
-  for (int i = 2; i < n - 1; ++i) {
-    const double m = h[i - 1] / diag[i - 1];
-    diag[i] -= m * h[i - 1];
-    rhs[i] -= m * rhs[i - 1];
-  }
-  for (int i = n - 2; i >= 1; --i) M[i] = (rhs[i] - (i + 1 < n - 1 ? h[i] * M[i + 1] : 0.0)) / diag[i];
-  Function f;
-  f.kind_ = Kind::kCubicSpline;
-  f.b_.assign(n, 0.0);
-  f.cc_.assign(n, 0.0);
-  f.d_.assign(n, 0.0);
-  for (int i = 0; i < n - 1; ++i) {
-    f.b_[i] = (y[i + 1] - y[i]) / h[i] - h[i] * (2.0 * M[i] + M[i + 1]) / 6.0;
-    f.cc_[i] = M[i] / 2.0;
-    f.d_[i] = (M[i + 1] - M[i]) / (6.0 * h[i]);
-  }
-  // Slope at the last knot, for extrapolation.
-  f.b_[n - 1] = f.b_[n - 2] + h[n - 2] * (2.0 * f.cc_[n - 2] + 3.0 * f.d_[n - 2] * h[n - 2]);
-  f.x_ = std::move(x);
-  f.y_ = std::move(y);
-  return f;
-}
-
 Function Function::scaled(double factor) const {
   Function f = *this;
   f.scale_ *= factor;

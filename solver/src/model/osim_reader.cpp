@@ -136,7 +136,7 @@ class Reader {
         d_.fail(w, "radius, length and dimensions must be positive");
       std::string quadrant = d_.text(w, "quadrant");
       if (!quadrant.empty() && quadrant[0] == '+') quadrant.erase(0, 1);
-      if (quadrant.empty() || quadrant == "all" || quadrant == "ALL" || quadrant == "All" || quadrant == "Unassigned") {
+      if (quadrant.empty() || quadrant == "all" || quadrant == "ALL" || quadrant == "All") {
         o.quadrant_axis = -1;
       } else if (quadrant.size() <= 2 && std::string("xyzXYZ").find(quadrant.back()) != std::string::npos &&
                  (quadrant.size() == 1 || quadrant[0] == '-')) {
@@ -145,7 +145,7 @@ class Reader {
       } else {
         d_.fail(w.child("quadrant"), "quadrant must be all, x, -x, y, -y, z or -z");
       }
-      if (o.shape != WrapObject::Shape::kCylinder && o.shape != WrapObject::Shape::kEllipsoid)
+      if (o.shape == WrapObject::Shape::kTorus)
         warn(w, kind + " is not supported yet: paths that name it are computed without it");
       m_.wrap_objects.push_back(o);
     }
@@ -238,11 +238,12 @@ class Reader {
       return Function::linear(c[0], c[1]);
     }
     if (kind == "PolynomialFunction") return Function::polynomial(d_.numbers(f, "coefficients"));
+    // OpenSim 4 registers NaturalCubicSpline and natCubicSpline as other names of SimmSpline
+    // (RegisterTypes_osimCommon), so they are read as SimmSplines.
     if (kind == "SimmSpline" || kind == "NaturalCubicSpline" || kind == "natCubicSpline" ||
         kind == "PiecewiseLinearFunction" || kind == "GCVSpline") {
       auto x = d_.numbers(f, "x"), y = d_.numbers(f, "y");
       try {
-        if (kind == "NaturalCubicSpline" || kind == "natCubicSpline") return Function::natural_cubic_spline(std::move(x), std::move(y));
         if (kind == "PiecewiseLinearFunction") return Function::piecewise_linear(std::move(x), std::move(y));
         if (kind == "GCVSpline") warn(f, "GCVSpline approximated by an interpolating cubic spline");
         return Function::simm_spline(std::move(x), std::move(y));
@@ -560,11 +561,10 @@ class Reader {
       const std::string method = d_.text(w, "method");
       if (method == "midpoint") pw.method = PathWrap::Method::kMidpoint;
       else if (method == "axial") pw.method = PathWrap::Method::kAxial;
-      else if (!method.empty() && method != "hybrid" && method != "Unassigned")
+      else if (!method.empty() && method != "hybrid")
         d_.fail(w.child("method"), "method must be hybrid, midpoint or axial");
-      // Cylinders and ellipsoids are computed; the reader has warned about the other shapes once each.
-      const auto shape = m_.wrap_objects[index].shape;
-      if (shape == WrapObject::Shape::kCylinder || shape == WrapObject::Shape::kEllipsoid) mu.wraps.push_back(pw);
+      // The torus is not computed; the reader has warned about it once.
+      if (m_.wrap_objects[index].shape != WrapObject::Shape::kTorus) mu.wraps.push_back(pw);
     }
   }
 

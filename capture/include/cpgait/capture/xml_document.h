@@ -14,6 +14,11 @@
 
 namespace cpgait::xml {
 
+// A setup's tool tag as OpenSim knows it: its own IK test setups spell it "InverseKinemtaticsTool".
+std::string_view tool_alias(std::string_view tag);
+// A node's first child element (comments and text skipped); empty when it has none.
+pugi::xml_node first_element(const pugi::xml_node& parent);
+
 class Document {
  public:
   // Throws InputError with the line of the parse error.
@@ -30,11 +35,12 @@ class Document {
   // Typed reads of a child element's text; `required` children that are missing throw.
   double number(const pugi::xml_node& parent, const char* child, double fallback, bool required = false) const;
   bool boolean(const pugi::xml_node& parent, const char* child, bool fallback) const;
+  // Text, trimmed; OpenSim's "Unassigned" (a property not set) reads as the fallback.
   std::string text(const pugi::xml_node& parent, const char* child, const std::string& fallback = "") const;
   std::vector<double> numbers(const pugi::xml_node& parent, const char* child) const;
   Eigen::Vector3d vec3(const pugi::xml_node& parent, const char* child, const Eigen::Vector3d& fallback) const;
-  // The <name> element of an OpenSim setup, as the root or inside <OpenSimDocument>; throws
-  // InputError when the document holds no such tool.
+  // The <name> element of an OpenSim setup, as the root or inside <OpenSimDocument>, under any
+  // spelling tool_alias knows; throws InputError when the document holds no such tool.
   pugi::xml_node tool(const char* name) const;
   // "<child>t0 t1</child>" with t0 <= t1 (s); unset when the child is absent.
   std::optional<std::pair<double, double>> time_range(const pugi::xml_node& parent, const char* child = "time_range") const;

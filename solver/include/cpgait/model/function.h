@@ -1,5 +1,5 @@
 #pragma once
-// OpenSim's one-variable functions (Constant, LinearFunction, SimmSpline, NaturalCubicSpline,
+// OpenSim's one-variable functions (Constant, LinearFunction, SimmSpline - also read for NaturalCubicSpline,
 // PiecewiseLinearFunction, PolynomialFunction, MultiplierFunction folded in as `scale`), evaluated
 // on any scalar type so that Ceres Jets differentiate through them exactly.
 #include <string>
@@ -18,8 +18,6 @@ class Function {
   // Forsythe-Malcolm-Moler cubic spline with end third derivatives from divided differences
   // (OpenSim's SimmSpline); linear extrapolation with the end slopes.
   static Function simm_spline(std::vector<double> x, std::vector<double> y);
-  // Natural end conditions (zero second derivative), linear extrapolation.
-  static Function natural_cubic_spline(std::vector<double> x, std::vector<double> y);
   static Function piecewise_linear(std::vector<double> x, std::vector<double> y);
   // coefficients from the highest power down, as OpenSim's PolynomialFunction.
   static Function polynomial(std::vector<double> coefficients);

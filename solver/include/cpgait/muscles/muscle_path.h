@@ -16,6 +16,7 @@
 #include "cpgait/model/model.h"
 #include "cpgait/muscles/wrap_cylinder.h"
 #include "cpgait/muscles/wrap_ellipsoid.h"
+#include "cpgait/muscles/wrap_sphere.h"
 
 namespace cpgait {
 
@@ -46,18 +47,22 @@ struct PathVertex {
   T surface_length_m = T(0.0);       // on a wrap's first tangent point: the length over the surface to the second
 };
 
-// One segment over one surface. The ellipsoid's construction is iterative and in doubles: on a Jet
-// its tangent points stay fixed on the surface's body, which is how its moment arms are defined.
+// One segment over one surface. The sphere and the ellipsoid are computed in doubles: on a Jet their
+// tangent points stay fixed on the surface's body, which is how their moment arms are defined (and,
+// for the sphere's geodesic, the exact derivative).
 template <typename T>
 SegmentWrap<T> wrap_segment(const WrapObject& obj, PathWrap::Method method, const Eigen::Matrix<T, 3, 1>& a,
                             const Eigen::Matrix<T, 3, 1>& b) {
   if (obj.shape == WrapObject::Shape::kCylinder) return wrap_cylinder(obj, a, b);
+  auto in_doubles = [&](const Eigen::Vector3d& av, const Eigen::Vector3d& bv) {
+    return obj.shape == WrapObject::Shape::kSphere ? wrap_sphere(obj, av, bv) : wrap_ellipsoid(obj, method, av, bv);
+  };
   if constexpr (std::is_same_v<T, double>) {
-    return wrap_ellipsoid(obj, method, a, b);
+    return in_doubles(a, b);
   } else {
     const Eigen::Vector3d av(scalar_value(a[0]), scalar_value(a[1]), scalar_value(a[2]));
     const Eigen::Vector3d bv(scalar_value(b[0]), scalar_value(b[1]), scalar_value(b[2]));
-    const SegmentWrap<double> w = wrap_ellipsoid(obj, method, av, bv);
+    const SegmentWrap<double> w = in_doubles(av, bv);
     SegmentWrap<T> out;
     out.status = w.status;
     out.r1 = w.r1.cast<T>();
