@@ -94,13 +94,18 @@ SegmentWrap<T> wrap_cylinder(const WrapObject& cyl, const Eigen::Matrix<T, 3, 1>
         return out;
       }
     }
-    const bool on_a = dsign(r1a[ax]) == sg, on_b = dsign(r1b[ax]) == sg;
-    const bool pick_b_first = (on_a && on_b) ? dsign(r2a[ax]) == sg
-                              : on_a         ? false
-                              : on_b         ? true
-                                             : (dsign(r2a[ax]) == sg || (dsign(r2b[ax]) != sg && !(
-                                                    std::acos(std::clamp((r1a.head<2>()).normalized().dot(r2b.head<2>().normalized()), -1.0, 1.0)) >
-                                                    std::acos(std::clamp((r1b.head<2>()).normalized().dot(r2a.head<2>().normalized()), -1.0, 1.0)))));
+    // Which pairing, (r1b, r2a) or (r1a, r2b): the one whose first point lies on the active side;
+    // with both or neither there, the second points decide; with none on it, the smaller angle.
+    const bool r1a_on = dsign(r1a[ax]) == sg, r1b_on = dsign(r1b[ax]) == sg;
+    const bool r2a_on = dsign(r2a[ax]) == sg, r2b_on = dsign(r2b[ax]) == sg;
+    auto angle = [](const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+      return std::acos(std::clamp(u.head<2>().normalized().dot(v.head<2>().normalized()), -1.0, 1.0));
+    };
+    bool pick_b_first;
+    if (r1a_on && r1b_on) pick_b_first = r2a_on;
+    else if (r1a_on || r1b_on) pick_b_first = r1b_on;
+    else if (r2a_on || r2b_on) pick_b_first = r2a_on;
+    else pick_b_first = !(angle(r1a, r2b) > angle(r1b, r2a));
     r1 = pick_b_first ? r1b : r1a;
     r2 = pick_b_first ? r2a : r2b;
     // Less than half way round or more: the tangent points' radial directions against the path's.
