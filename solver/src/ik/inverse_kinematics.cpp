@@ -38,7 +38,8 @@ Eigen::VectorXd reference_row_at(const Model& model, const Storage& ref, const I
 }
 
 // Residuals: sqrt(w) * (p_model - p_measured) per marker (zero where the marker is missing), then
-// sqrt(w) * (q - q_task) per coordinate task. Parameters: the free (unlocked) coordinates.
+// sqrt(w) * (q - q_task) per coordinate task. Parameters: the free coordinates (neither locked nor set
+// by a coupler); coupled ones follow their independent coordinate.
 class IkCost final : public ceres::CostFunction {
  public:
   IkCost(const Model& model, const IkTargets& targets, const std::vector<int>& free, const Eigen::VectorXd& q_fixed)
@@ -47,10 +48,13 @@ class IkCost final : public ceres::CostFunction {
     set_num_residuals(static_cast<int>(3 * targets.markers.size() + targets.coordinates.size()));
     mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
     for (std::size_t k = 0; k < free.size(); ++k) free_slot_[free[k]] = static_cast<int>(k);
+    coupler_of_.assign(model.num_coordinates(), -1);
+    for (std::size_t j = 0; j < model.couplers.size(); ++j) coupler_of_[model.couplers[j].dependent] = static_cast<int>(j);
     for (const auto& m : targets.markers) {
       std::vector<int> slots;
       for (int c : ancestor_coordinates(model, model.markers[m.model_marker].body))
-        if (free_slot_[c] >= 0) slots.push_back(c);
+        if (free_slot_[c] >= 0 || (coupler_of_[c] >= 0 && free_slot_[model.couplers[coupler_of_[c]].independent] >= 0))
+          slots.push_back(c);
       marker_coordinates_.push_back(std::move(slots));
       sqrt_w_markers_.push_back(std::sqrt(m.weight));
     }
@@ -65,7 +69,14 @@ class IkCost final : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const double* x = parameters[0];
     for (std::size_t k = 0; k < free_.size(); ++k) q_[free_[k]] = x[k];
+    apply_coordinate_couplers(model_, q_.data());
     forward_kinematics(model_, q_.data(), ws_);
+    // A coupled coordinate moves with its independent one: d/dq_i = scale f'(q_i) d/dq_d.
+    auto slot_and_factor = [&](int c) {
+      if (free_slot_[c] >= 0) return std::make_pair(free_slot_[c], 1.0);
+      const CoordinateCoupler& cc = model_.couplers[coupler_of_[c]];
+      return std::make_pair(free_slot_[cc.independent], cc.scale * cc.function.derivative(q_[cc.independent]));
+    };
     const bool want_j = jacobians && jacobians[0];
     const int nf = static_cast<int>(free_.size());
     if (want_j) {
@@ -86,11 +97,11 @@ class IkCost final : public ceres::CostFunction {
       if (!want_j) continue;
       double* J = jacobians[0] + 3 * i * nf;  // row-major
       for (int c : marker_coordinates_[i]) {
-        const Eigen::Vector3d d = point_velocity_column(S_, c, p);
-        const int k = free_slot_[c];
-        J[k] = sw * d[0];
-        J[nf + k] = sw * d[1];
-        J[2 * nf + k] = sw * d[2];
+        const auto [k, factor] = slot_and_factor(c);
+        const Eigen::Vector3d d = factor * point_velocity_column(S_, c, p);
+        J[k] += sw * d[0];
+        J[nf + k] += sw * d[1];
+        J[2 * nf + k] += sw * d[2];
       }
     }
     const int base = static_cast<int>(3 * targets_.markers.size());
@@ -99,7 +110,12 @@ class IkCost final : public ceres::CostFunction {
       const double target = c.reference_column >= 0 ? (*reference_row_)[c.reference_column] : c.value;
       const double sw = std::sqrt(c.weight);
       residuals[base + i] = sw * (q_[c.coordinate] - target);
-      if (want_j && free_slot_[c.coordinate] >= 0) jacobians[0][(base + i) * nf + free_slot_[c.coordinate]] = sw;
+      const bool moves = free_slot_[c.coordinate] >= 0 ||
+                         (coupler_of_[c.coordinate] >= 0 && free_slot_[model_.couplers[coupler_of_[c.coordinate]].independent] >= 0);
+      if (want_j && moves) {
+        const auto [k, factor] = slot_and_factor(c.coordinate);
+        jacobians[0][(base + i) * nf + k] = sw * factor;
+      }
     }
     return true;
   }
@@ -112,6 +128,7 @@ class IkCost final : public ceres::CostFunction {
   mutable KinematicsWorkspace<double> ws_;
   mutable MotionSubspace S_;
   std::vector<int> free_slot_;
+  std::vector<int> coupler_of_;  // per coordinate: the coupler that sets it, or -1
   std::vector<std::vector<int>> marker_coordinates_;
   std::vector<double> sqrt_w_markers_;
   const MarkerTrial* trial_ = nullptr;
@@ -197,9 +214,12 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
 
   const int nq = model.num_coordinates();
   std::vector<int> free;
+  std::vector<int> coupled(nq, -1);  // per coordinate: its independent one when a coupler sets it
+  for (const auto& cc : model.couplers) coupled[cc.dependent] = cc.independent;
   for (int c = 0; c < nq; ++c)
-    if (!model.coordinates[c].locked) free.push_back(c);
+    if (!model.coordinates[c].locked && coupled[c] < 0) free.push_back(c);
   Eigen::VectorXd q = model.default_coordinates();
+  apply_coordinate_couplers(model, q.data());
   IkCost* cost = new IkCost(model, targets, free, q);
   std::vector<double> x(free.size());
   for (std::size_t k = 0; k < free.size(); ++k) x[k] = q[free[k]];
@@ -248,10 +268,10 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
   for (int m = 0; m < static_cast<int>(targets.markers.size()); ++m)
     for (int c : ancestor_coordinates(model, model.markers[targets.markers[m].model_marker].body))
       for (std::size_t k = 0; k < free.size(); ++k)
-        if (free[k] == c) markers_seeing[k].push_back(m);
+        if (free[k] == c || free[k] == coupled[c]) markers_seeing[k].push_back(m);
   std::vector<bool> coordinate_task(free.size(), false);
   for (const auto& t : targets.coordinates)
-    for (std::size_t k = 0; k < free.size(); ++k) coordinate_task[k] = coordinate_task[k] || free[k] == t.coordinate;
+    for (std::size_t k = 0; k < free.size(); ++k) coordinate_task[k] = coordinate_task[k] || free[k] == t.coordinate || free[k] == coupled[t.coordinate];
 
   KinematicsWorkspace<double> ws(model);
   Eigen::VectorXd reference_row;
@@ -277,6 +297,7 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
     ceres::Solve(so, &problem, &s);
     // Warm start: x keeps this frame's solution for the next.
     for (std::size_t k = 0; k < free.size(); ++k) q[free[k]] = x[k];
+    apply_coordinate_couplers(model, q.data());
     result.summary.total_iterations += static_cast<int>(s.iterations.size()) - 1;
     result.summary.max_iterations_in_a_frame =
         std::max(result.summary.max_iterations_in_a_frame, static_cast<int>(s.iterations.size()) - 1);

@@ -56,14 +56,13 @@ class Reader {
       const std::string n = child.name();
       if (!kQuietlySkipped.count(n)) warn(child, "element <" + n + "> is not used by cpgait");
     }
-    if (xml_node cs = root.child("ConstraintSet"); cs && cs.child("objects").first_child())
-      warn(cs, "kinematic constraints are not supported; they are ignored");
     if (xml_node cg = root.child("ContactGeometrySet"); cg && cg.child("objects").first_child())
       warn(cg, "contact geometry is not used (contact spheres come from cpgait's own contact file)");
 
     read_bodies();
     read_joints();
     order_joints();
+    read_constraints(root.child("ConstraintSet"));
     read_markers(root.child("MarkerSet"));
     read_forces();
     if (!options_.marker_set_file.empty()) read_marker_set_file(options_.marker_set_file);
@@ -457,6 +456,43 @@ class Reader {
     for (auto& b : m_.bodies)
       if (b.joint >= 0) b.joint = new_index[b.joint];
     for (auto& c : m_.coordinates) c.joint = new_index[c.joint];
+  }
+
+  void read_constraints(const xml_node& set) {
+    for (const auto& n : set.child("objects").children()) {
+      if (n.type() != pugi::node_element) continue;
+      if (!is(n, "CoordinateCouplerConstraint")) {
+        warn(n, "this kinematic constraint type is not supported; it is ignored");
+        continue;
+      }
+      // 3.x: isDisabled; 4.x: isEnforced.
+      if (d_.boolean(n, "isDisabled", false) || !d_.boolean(n, "isEnforced", true)) continue;
+      CoordinateCoupler c;
+      c.name = n.attribute("name").value();
+      const std::string independent = d_.text(n, "independent_coordinate_names");
+      const auto names = text::split_ws(independent);
+      if (names.size() != 1) d_.fail(n.child("independent_coordinate_names"), "a coupler of exactly one independent coordinate is supported");
+      c.independent = m_.coordinate_index(names[0]);
+      c.dependent = m_.coordinate_index(d_.text(n, "dependent_coordinate_name"));
+      if (c.independent < 0) d_.fail(n.child("independent_coordinate_names"), "unknown coordinate '" + std::string(names[0]) + "'");
+      if (c.dependent < 0 || c.dependent == c.independent)
+        d_.fail(n.child("dependent_coordinate_name"), "unknown or independent coordinate '" + d_.text(n, "dependent_coordinate_name") + "'");
+      xml_node fn;
+      for (const auto& f : n.child("coupled_coordinates_function").children())
+        if (f.type() == pugi::node_element) {
+          fn = f;
+          break;
+        }
+      if (!fn) d_.fail(n, "CoordinateCouplerConstraint without a coupled_coordinates_function");
+      c.function = read_function(fn);
+      c.scale = d_.number(n, "scale_factor", 1.0);
+      for (const auto& other : m_.couplers)
+        if (other.dependent == c.dependent || other.dependent == c.independent || other.independent == c.dependent)
+          d_.fail(n, "coupler chains and coordinates coupled twice are not supported");
+      warn(n, "IK keeps the coupled coordinate on its function (ID, as OpenSim's, ignores constraints); static "
+              "optimization, CMC and forward dynamics do not enforce it yet");
+      m_.couplers.push_back(std::move(c));
+    }
   }
 
   // A component's frame: socket_parent_frame (4.x) or <body> (3.x).

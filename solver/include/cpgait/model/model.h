@@ -131,6 +131,15 @@ struct Muscle {
   std::vector<PathWrap> wraps;  // in the order OpenSim applies them
 };
 
+// OpenSim's CoordinateCouplerConstraint: q[dependent] = scale * function(q[independent]).
+struct CoordinateCoupler {
+  std::string name;
+  int dependent = -1;
+  int independent = -1;
+  Function function = Function::linear(1.0, 0.0);
+  double scale = 1.0;
+};
+
 class Model {
  public:
   std::string name;
@@ -142,6 +151,7 @@ class Model {
   std::vector<Marker> markers;
   std::vector<Muscle> muscles;
   std::vector<WrapObject> wrap_objects;
+  std::vector<CoordinateCoupler> couplers;  // in file order; a dependent coordinate is no coupler's independent one
 
   int num_coordinates() const { return static_cast<int>(coordinates.size()); }
   int body_index(std::string_view name) const;
@@ -151,6 +161,12 @@ class Model {
   Eigen::VectorXd default_coordinates() const;
   double total_mass_kg() const;
 };
+
+// Sets every coupled (dependent) coordinate from its independent one.
+template <typename T>
+void apply_coordinate_couplers(const Model& model, T* q) {
+  for (const auto& c : model.couplers) q[c.dependent] = T(c.scale) * c.function.value(q[c.independent]);
+}
 
 // Coordinate values in OpenSim's file units: angles in degrees, translations in metres, one row per
 // time, columns named after the coordinates.
