@@ -40,31 +40,32 @@ void run_id(const IdInputs& in, const std::string& out_path) {
   std::printf("%s%s\nwrote %s\n", r.summary.BriefReport().c_str(), loads ? " with external loads" : "", out_path.c_str());
 }
 
+// What ID needs from a setup: IdSetup (InverseDynamicsTool) and AnalyzeSetup (its
+// InverseDynamics analysis) name the same fields.
+template <typename Setup>
+IdInputs id_inputs(const Setup& s, const std::string& setup_path, const ToolOverrides& o) {
+  IdInputs in;
+  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
+  in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
+  in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
+  in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
+  in.options.time_range_s = s.time_range_s;
+  return in;
+}
+
 }  // namespace
 
 void run_id_setup(const std::string& setup_path, const ToolOverrides& o) {
   const IdSetup s = read_id_setup(setup_path);
-  IdInputs in;
-  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
-  in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
-  in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
-  in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
-  in.options.time_range_s = s.time_range_s;
   const std::string dir = o.results_dir(s.setup_dir, s.results_directory);
   const std::string file = s.output_gen_force_file.empty() ? "inverse_dynamics.sto" : s.output_gen_force_file;
-  run_id(in, (fs::path(dir) / file).string());
+  run_id(id_inputs(s, setup_path, o), (fs::path(dir) / file).string());
 }
 
 void run_id_analysis(const std::string& setup_path, const ToolOverrides& o) {
   const AnalyzeSetup s = read_analyze_setup(setup_path);
-  IdInputs in;
-  in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
-  in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
-  in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
-  in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
-  in.options.time_range_s = s.time_range_s;
   const std::string dir = o.results_dir(s.setup_dir, s.results_directory);
-  run_id(in, (fs::path(dir) / ((s.name.empty() ? "analyze" : s.name) + "_InverseDynamics.sto")).string());
+  run_id(id_inputs(s, setup_path, o), (fs::path(dir) / ((s.name.empty() ? "analyze" : s.name) + "_InverseDynamics.sto")).string());
 }
 
 void add_dynamics_commands(CLI::App& app) {
