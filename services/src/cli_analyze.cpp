@@ -36,9 +36,7 @@ void run_muscle_analysis_setup(const std::string& setup_path, const AnalyzeSetup
   }
   std::vector<int> muscles;
   for (const auto& name : s.muscle_list) {
-    int found = -1;
-    for (std::size_t m = 0; m < model.muscles.size(); ++m)
-      if (model.muscles[m].name == name) found = static_cast<int>(m);
+    const int found = model.muscle_index(name);
     if (found < 0) throw InputError(setup_path, 0, "muscle_list", "the model has no muscle '" + name + "'");
     muscles.push_back(found);
   }

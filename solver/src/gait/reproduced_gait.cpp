@@ -57,8 +57,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   std::vector<int> cpg_to_model(cpg.muscle_names.size(), -1);
   int matched = 0;
   for (std::size_t k = 0; k < cpg.muscle_names.size(); ++k) {
-    for (int m = 0; m < nm; ++m)
-      if (model.muscles[m].name == cpg.muscle_names[k]) cpg_to_model[k] = m;
+    cpg_to_model[k] = model.muscle_index(cpg.muscle_names[k]);
     matched += cpg_to_model[k] >= 0;
   }
   if (matched == 0) throw InputError("cpg", 0, "muscles", "none of the CPG's muscles is in model " + model.name);

@@ -13,6 +13,8 @@ int Model::body_index(std::string_view n) const { return find_named(bodies, n); 
 int Model::coordinate_index(std::string_view n) const { return find_named(coordinates, n); }
 int Model::marker_index(std::string_view n) const { return find_named(markers, n); }
 int Model::joint_index(std::string_view n) const { return find_named(joints, n); }
+int Model::muscle_index(std::string_view n) const { return find_named(muscles, n); }
+int Model::wrap_object_index(std::string_view n) const { return find_named(wrap_objects, n); }
 
 Eigen::VectorXd Model::default_coordinates() const {
   Eigen::VectorXd q(num_coordinates());

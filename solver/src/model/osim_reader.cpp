@@ -123,8 +123,7 @@ class Reader {
       else if (kind == "WrapTorus") o.shape = WrapObject::Shape::kTorus;
       else d_.fail(w, "unknown wrap object type");
       if (o.name.empty()) d_.fail(w, kind + " without a name");
-      for (const auto& other : m_.wrap_objects)
-        if (other.name == o.name) d_.fail(w, "wrap object name '" + o.name + "' is used twice");
+      if (m_.wrap_object_index(o.name) >= 0) d_.fail(w, "wrap object name '" + o.name + "' is used twice");
       o.pose.translation_m = d_.vec3(w, "translation", Eigen::Vector3d::Zero());
       o.pose.rotation = rotation_from_body_xyz(d_.vec3(w, "xyz_body_rotation", Eigen::Vector3d::Zero()));
       o.active = d_.boolean(w, "active", true);
@@ -582,9 +581,7 @@ class Reader {
       if (w.type() != pugi::node_element) continue;
       if (!is(w, "PathWrap") && !is(w, "MuscleWrap")) d_.fail(w, "expected <PathWrap>");
       const std::string object = d_.text(w, "wrap_object");
-      int index = -1;
-      for (std::size_t k = 0; k < m_.wrap_objects.size(); ++k)
-        if (m_.wrap_objects[k].name == object) index = static_cast<int>(k);
+      const int index = m_.wrap_object_index(object);
       if (index < 0) d_.fail(w.child("wrap_object"), "unknown wrap object '" + object + "'");
       PathWrap pw;
       pw.wrap_object = index;

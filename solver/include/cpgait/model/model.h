@@ -158,6 +158,8 @@ class Model {
   int coordinate_index(std::string_view name) const;
   int marker_index(std::string_view name) const;
   int joint_index(std::string_view name) const;
+  int muscle_index(std::string_view name) const;
+  int wrap_object_index(std::string_view name) const;
   Eigen::VectorXd default_coordinates() const;
   double total_mass_kg() const;
 };
