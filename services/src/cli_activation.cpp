@@ -1,5 +1,6 @@
 // so and cmc: static optimization and computed muscle control from the command line and from
 // OpenSim AnalyzeTool and CMCTool setups.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 
@@ -46,10 +47,13 @@ DynamicsInputs read_dynamics_inputs(const std::string& model, const std::string&
   d.model = read_muscle_model(model, generic_model);
   if (replace_force_set) d.model.model.muscles.clear();
   else if (use_model_actuators) d.actuators = read_actuators(model);
-  for (const auto& f : actuator_files) {
-    auto more = read_actuators(f);
-    d.actuators.insert(d.actuators.end(), more.begin(), more.end());
-  }
+  // As OpenSim's ForceSet::append: an actuator whose name the set already has is not added again.
+  for (const auto& f : actuator_files)
+    for (auto& a : read_actuators(f)) {
+      const bool known = std::any_of(d.actuators.begin(), d.actuators.end(), [&](const auto& b) { return b.name == a.name; });
+      if (known) d.model.warnings.push_back(f + ": actuator '" + a.name + "' is already in the model's force set; the model's is used, as OpenSim does");
+      else d.actuators.push_back(std::move(a));
+    }
   if (!loads.empty()) {
     const ExternalLoadsSpec spec = read_external_loads(loads);
     const std::string data = !grf.empty() ? grf : resolve_setup_file(spec.setup_dir, spec.datafile, loads, "datafile");

@@ -57,6 +57,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   ko.lowpass_cutoff_hz = options.lowpass_cutoff_hz;
   const CoordinateTrajectories traj = coordinate_trajectories(model, desired, ko);
   r.summary.warnings = traj.warnings;
+  if (auto w = muscle_model_warning(model); !w.empty()) r.summary.warnings.push_back(w);
   const double data_t0 = traj.time_s.front(), data_t1 = traj.time_s.back();
   const double T = options.window_s;
   const double t_first = options.time_range_s ? options.time_range_s->first : data_t0;

@@ -4,7 +4,9 @@
 #include <cstdio>
 
 #include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/dynamics/rnea.h"
+#include "cpgait/muscles/millard2012.h"
 #include "cpgait/muscles/muscle_path.h"
 #include "cpgait/muscles/thelen2003.h"
 
@@ -20,21 +22,20 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
   id_options.output_times_s = options.output_times_s;
   const CoordinateTrajectories k = coordinate_trajectories(model, coordinates, id_options);
   result.summary.warnings = k.warnings;
-  for (const auto& mu : model.muscles)
-    if (mu.type != "Thelen2003Muscle") {
-      result.summary.warnings.push_back("muscle '" + mu.name + "' is a " + mu.type +
-                                        "; its force-length-velocity curves are approximated by Thelen 2003's");
-      break;
-    }
 
   const int nq = model.num_coordinates(), nm = static_cast<int>(model.muscles.size()), na = actuators.size();
   const int n = nm + na;
   for (const auto& mu : model.muscles) result.names.push_back(mu.name);
   for (int i = 0; i < na; ++i) result.names.push_back(actuators.spec(i).name);
+  // OpenSim's AnalyzeTool records the first and the last frame of the range and, between them, every
+  // frame whose row in the coordinates file is a multiple of the step interval.
+  const int step = std::max(1, options.step_interval), nk = static_cast<int>(k.time_s.size());
+  int first_row = 0;
+  if (options.output_times_s.empty())
+    while (first_row < coordinates.num_rows() && coordinates.data(first_row, 0) < k.time_s[0] - 1e-9) ++first_row;
   std::vector<int> frames;
-  for (int i = 0; i < static_cast<int>(k.time_s.size()); i += std::max(1, options.step_interval)) frames.push_back(i);
-  // OpenSim's AnalyzeTool also records the final time, whether or not it falls on a step.
-  if (!frames.empty() && frames.back() + 1 < static_cast<int>(k.time_s.size())) frames.push_back(static_cast<int>(k.time_s.size()) - 1);
+  for (int i = 0; i < nk; ++i)
+    if (i == 0 || i == nk - 1 || (first_row + i) % step == 0) frames.push_back(i);
   const int nf = static_cast<int>(frames.size());
   result.controls.resize(nf, n);
   result.forces.resize(nf, n);
@@ -57,7 +58,7 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
   MusclePathGeometry geometry(model);
   std::vector<Vector6d> external(loads ? model.bodies.size() : 0);
   Eigen::MatrixXd A(nq, n);
-  Eigen::VectorXd q(nq), qd(nq), qdd(nq), tau(nq), f_opt(n), lambda, x;
+  Eigen::VectorXd q(nq), qd(nq), qdd(nq), tau(nq), passive(nq), f_opt(n), lambda, x;
   DualNewtonOptions qp;
   qp.exponent = options.activation_exponent;
   qp.tolerance = options.equality_tolerance;
@@ -72,12 +73,16 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     motion_subspace(model, q.data(), ws, S);
     if (loads) loads->wrenches_at(k.time_s[i], ws, external);
     rnea(model, q.data(), qd.data(), qdd.data(), external, dws, tau.data());
+    // What the actuators must add to the model's passive forces (OpenSim's SO keeps them applied).
+    passive.setZero();
+    add_passive_generalized_forces(model, q.data(), qd.data(), passive.data());
+    tau -= passive;
     muscle_path_geometry(model, q.data(), qd.data(), ws, S, geometry);
     for (int m = 0; m < nm; ++m) {
       const Muscle& mu = model.muscles[m];
-      f_opt[m] = options.use_muscle_physiology
-                     ? thelen2003::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
-                     : mu.max_isometric_force_N;
+      f_opt[m] = !options.use_muscle_physiology ? mu.max_isometric_force_N
+                 : mu.millard ? millard2012::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
+                              : thelen2003::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m]);
       A.col(m) = geometry.moment_arm_m.row(m).transpose() * f_opt[m];
     }
     actuators.generalized_forces(model, ws, S, A.rightCols(na));

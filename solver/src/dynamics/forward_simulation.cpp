@@ -164,6 +164,7 @@ ForwardSimulationResult forward_simulation(const Model& model, const ResolvedAct
   if (sys.contacts)
     for (const auto& s : sys.contacts->spheres) r.contact_names.push_back(s.name);
 
+  if (auto w = muscle_model_warning(model); !w.empty()) r.warnings.push_back(w);
   const bool correcting = o.correction_kp || o.correction_kv;
   std::optional<CoordinateTrajectories> want;
   if (correcting) {

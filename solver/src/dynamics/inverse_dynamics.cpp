@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/model/function.h"
 #include "cpgait/signal/lowpass.h"
 
@@ -132,6 +133,13 @@ void inverse_dynamics_frame(const Model& model, const double* q, const double* q
     loads->wrenches_at(t, ws.kinematics, ws.external);
   }
   rnea(model, q, qd, qdd, loads ? ws.external : kNone, ws.dynamics, tau);
+  // OpenSim's ID keeps the model's passive forces applied (only muscles are excluded by default):
+  // the joint moments are what remains to be supplied.
+  if (!model.coordinate_limit_forces.empty()) {
+    for (int i = 0; i < model.num_coordinates(); ++i) ws.passive[i] = 0.0;
+    add_passive_generalized_forces(model, q, qd, ws.passive.data());
+    for (int i = 0; i < model.num_coordinates(); ++i) tau[i] -= ws.passive[i];
+  }
 }
 
 InverseDynamicsResult inverse_dynamics(const Model& model, const Storage& coordinates, const AppliedLoads* loads,

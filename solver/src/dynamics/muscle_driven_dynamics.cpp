@@ -1,5 +1,6 @@
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 
+#include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/thelen2003.h"
 
@@ -26,6 +27,16 @@ Eigen::Vector3d point_velocity_in_ground(const MotionSubspace& S, const std::vec
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
   for (int c : body_coordinates) v += point_velocity_column(S, c, p) * u[c];
   return v;
+}
+
+std::string muscle_model_warning(const Model& model) {
+  int n = 0;
+  std::string first;
+  for (const auto& mu : model.muscles)
+    if (mu.millard && n++ == 0) first = mu.name;
+  if (!n) return "";
+  return std::to_string(n) + " Millard2012EquilibriumMuscle muscles (first '" + first +
+         "'): forward dynamics approximates their force-length-velocity curves by Thelen 2003's";
 }
 
 void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
@@ -94,6 +105,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
     ws.tau.noalias() += ws.actuator_columns * control;
   }
   if (sys.generalized_forces) ws.tau += *sys.generalized_forces;
+  add_passive_generalized_forces(model, x.data(), x.data() + nq, ws.tau.data());
   fd.llt.compute(fd.M);
   xdot.head(nq) = x.segment(nq, nq);
   xdot.segment(nq, nq) = fd.llt.solve(ws.tau - fd.bias);

@@ -80,6 +80,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   // The reference, its root coordinates, and the start.
   const CoordinateTrajectories ref = coordinate_trajectories(model, reference, {});
   r.warnings.insert(r.warnings.end(), ref.warnings.begin(), ref.warnings.end());
+  if (auto w = muscle_model_warning(model); !w.empty()) r.warnings.push_back(w);
   // The reference at reference time tau, its rates scaled to simulated time by the speed knob.
   auto reference_at = [&](double tau, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) {
     trajectories_at(ref, tau, q, u, a);

@@ -8,6 +8,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/xml_document.h"
+#include "cpgait/muscles/millard2012.h"
 
 namespace cpgait {
 namespace {
@@ -608,6 +609,10 @@ class Reader {
       // The model's actuators reach SO, CMC and the Forward tool through the actuator set reader
       // (capture/actuator_set.h), which reads them from the same ForceSet.
       if (type == "CoordinateActuator" || type == "PointActuator" || type == "TorqueActuator") continue;
+      if (type == "CoordinateLimitForce") {
+        read_coordinate_limit_force(n);
+        continue;
+      }
       if (type != "Thelen2003Muscle" && type != "Millard2012EquilibriumMuscle") {
         warn(n, "force type not supported yet; ignored");
         continue;
@@ -634,14 +639,92 @@ class Reader {
         mu.af = d_.number(n, "Af", 0.25);
         mu.flen = d_.number(n, "Flen", 1.4);
       } else {
-        const xml_node act = n.child("MuscleFirstOrderActivationDynamicModel");
-        mu.activation_time_constant_s = d_.number(act ? act : n, "activation_time_constant", 0.01);
-        mu.deactivation_time_constant_s = d_.number(act ? act : n, "deactivation_time_constant", 0.04);
+        read_millard(n, mu);
       }
       mu.min_control = d_.number(n, "min_control", mu.min_control);
       mu.max_control = d_.number(n, "max_control", mu.max_control);
       read_path(n, mu);
       m_.muscles.push_back(std::move(mu));
+    }
+  }
+
+  // Stiffness per degree and limits in degrees for rotational coordinates, converted to SI here.
+  void read_coordinate_limit_force(const xml_node& n) {
+    CoordinateLimitForce f;
+    f.name = n.attribute("name").value();
+    const std::string coord = d_.text(n, "coordinate");
+    f.coordinate = m_.coordinate_index(coord);
+    if (f.coordinate < 0) d_.fail(n.child("coordinate") ? n.child("coordinate") : n, "CoordinateLimitForce '" + f.name + "': unknown coordinate '" + coord + "'");
+    const double w = m_.coordinates[f.coordinate].is_angle() ? M_PI / 180.0 : 1.0;
+    f.upper_limit = w * d_.number(n, "upper_limit", 0.0, true);
+    f.lower_limit = w * d_.number(n, "lower_limit", 0.0, true);
+    f.upper_stiffness = d_.number(n, "upper_stiffness", 0.0, true) / w;
+    f.lower_stiffness = d_.number(n, "lower_stiffness", 0.0, true) / w;
+    f.damping = d_.number(n, "damping", 0.0) / w;
+    f.transition = w * d_.number(n, "transition", 0.0, true);
+    if (f.transition <= 0) d_.fail(n.child("transition"), "CoordinateLimitForce '" + f.name + "': transition must be positive");
+    if (f.upper_stiffness < 0 || f.lower_stiffness < 0 || f.damping < 0)
+      d_.fail(n, "CoordinateLimitForce '" + f.name + "': stiffnesses and damping must not be negative");
+    if (f.lower_limit > f.upper_limit) d_.fail(n.child("lower_limit"), "CoordinateLimitForce '" + f.name + "': lower_limit is above upper_limit");
+    if (!d_.boolean(n, "isDisabled", false) && d_.boolean(n, "appliesForce", true)) m_.coordinate_limit_forces.push_back(f);
+  }
+
+  // Each named child's number into its field; an absent or empty one leaves the field's default.
+  void read_numbers(const xml_node& parent, std::initializer_list<std::pair<const char*, double*>> fields) {
+    for (const auto& [name, field] : fields) *field = d_.number(parent, name, *field);
+  }
+
+  std::optional<double> optional_number(const xml_node& parent, const char* child) {
+    const xml_node c = parent.child(child);
+    if (!c || d_.numbers_of(c).empty()) return std::nullopt;  // OpenSim's empty optional property
+    return d_.number(parent, child, 0.0);
+  }
+
+  // Millard2012EquilibriumMuscle's properties and curves; 3.x documents keep the activation time
+  // constants in a MuscleFirstOrderActivationDynamicModel child.
+  void read_millard(const xml_node& n, Muscle& mu) {
+    const xml_node act = n.child("MuscleFirstOrderActivationDynamicModel");
+    mu.activation_time_constant_s = d_.number(act ? act : n, "activation_time_constant", 0.01);
+    mu.deactivation_time_constant_s = d_.number(act ? act : n, "deactivation_time_constant", 0.04);
+    millard2012::Parameters p;
+    p.fiber_damping = d_.number(n, "fiber_damping", p.fiber_damping);
+    p.minimum_activation = d_.number(act ? act : n, "minimum_activation", p.minimum_activation);
+    const xml_node pen = n.child("MuscleFixedWidthPennationModel");
+    p.maximum_pennation_angle_rad = d_.number(pen ? pen : n, "maximum_pennation_angle", p.maximum_pennation_angle_rad);
+    p.ignore_tendon_compliance = d_.boolean(n, "ignore_tendon_compliance", false);
+    mu.min_control = p.minimum_activation;  // OpenSim's default; the document's min_control, read next, wins
+    auto& a = p.active_force_length;
+    read_numbers(n.child("ActiveForceLengthCurve"), {{"min_norm_active_fiber_length", &a.min_norm_active_fiber_length},
+                                                     {"transition_norm_fiber_length", &a.transition_norm_fiber_length},
+                                                     {"max_norm_active_fiber_length", &a.max_norm_active_fiber_length},
+                                                     {"shallow_ascending_slope", &a.shallow_ascending_slope},
+                                                     {"minimum_value", &a.minimum_value}});
+    auto& v = p.force_velocity;
+    read_numbers(n.child("ForceVelocityCurve"), {{"concentric_slope_at_vmax", &v.concentric_slope_at_vmax},
+                                                 {"concentric_slope_near_vmax", &v.concentric_slope_near_vmax},
+                                                 {"isometric_slope", &v.isometric_slope},
+                                                 {"eccentric_slope_at_vmax", &v.eccentric_slope_at_vmax},
+                                                 {"eccentric_slope_near_vmax", &v.eccentric_slope_near_vmax},
+                                                 {"max_eccentric_velocity_force_multiplier", &v.max_eccentric_velocity_force_multiplier},
+                                                 {"concentric_curviness", &v.concentric_curviness},
+                                                 {"eccentric_curviness", &v.eccentric_curviness}});
+    const xml_node fpe = n.child("FiberForceLengthCurve");
+    auto& f = p.fiber_force_length;
+    f.strain_at_zero_force = d_.number(fpe, "strain_at_zero_force", f.strain_at_zero_force);
+    f.strain_at_one_norm_force = d_.number(fpe, "strain_at_one_norm_force", f.strain_at_one_norm_force);
+    f.stiffness_at_low_force = optional_number(fpe, "stiffness_at_low_force");
+    f.stiffness_at_one_norm_force = optional_number(fpe, "stiffness_at_one_norm_force");
+    f.curviness = optional_number(fpe, "curviness");
+    const xml_node fse = n.child("TendonForceLengthCurve");
+    auto& t = p.tendon_force_length;
+    t.strain_at_one_norm_force = d_.number(fse, "strain_at_one_norm_force", t.strain_at_one_norm_force);
+    t.stiffness_at_one_norm_force = optional_number(fse, "stiffness_at_one_norm_force");
+    t.norm_force_at_toe_end = optional_number(fse, "norm_force_at_toe_end");
+    t.curviness = optional_number(fse, "curviness");
+    try {
+      mu.millard = std::make_shared<const millard2012::Curves>(millard2012::make_curves(p));
+    } catch (const std::invalid_argument& e) {
+      d_.fail(n, std::string("muscle '") + mu.name + "': " + e.what());
     }
   }
 

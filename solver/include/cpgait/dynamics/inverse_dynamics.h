@@ -66,7 +66,9 @@ struct InverseDynamicsFrameWorkspace {
   DynamicsWorkspace dynamics;
   KinematicsWorkspace<double> kinematics;  // body poses for loads expressed in body frames
   std::vector<Vector6d> external;
-  explicit InverseDynamicsFrameWorkspace(const Model& m) : dynamics(m), kinematics(m), external(m.bodies.size()) {}
+  std::vector<double> passive;  // the model's passive generalized forces
+  explicit InverseDynamicsFrameWorkspace(const Model& m)
+      : dynamics(m), kinematics(m), external(m.bodies.size()), passive(m.num_coordinates()) {}
 };
 void inverse_dynamics_frame(const Model& model, const double* q, const double* qd, const double* qdd, double t_s,
                             const AppliedLoads* loads, InverseDynamicsFrameWorkspace& ws, double* tau);

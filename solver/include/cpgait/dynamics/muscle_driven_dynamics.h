@@ -14,6 +14,7 @@
 // when a muscle is stretched (late swing's hamstrings by ~5x on gait2392), because the tendon does
 // not take up any of the stretch.
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 #include "cpgait/activation/actuators.h"
@@ -58,6 +59,11 @@ struct MuscleDrivenWorkspace {
   std::vector<Eigen::Vector3d> contact_force_N, contact_point_m;  // per sphere, ground frame
   explicit MuscleDrivenWorkspace(const MuscleDrivenSystem& sys);
 };
+
+// The warning to give where a model's muscles are not the Thelen 2003 muscles these dynamics compute
+// (Millard2012EquilibriumMuscle: its force-length-velocity curves are approximated by Thelen's);
+// empty when there are none.
+std::string muscle_model_warning(const Model& model);
 
 // xdot = f(t, x); excitation per muscle (clamped to its control range), control per actuator.
 void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const Eigen::VectorXd& x,

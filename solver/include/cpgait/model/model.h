@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -15,6 +16,10 @@
 #include "cpgait/model/function.h"
 
 namespace cpgait {
+
+namespace millard2012 {
+struct Curves;  // cpgait/muscles/millard2012.h
+}
 
 // A rigid transform: x_parent = rotation * x_child + translation.
 struct Pose {
@@ -127,6 +132,8 @@ struct Muscle {
   double flen = 1.4;
   double min_control = 0.01;
   double max_control = 1.0;
+  // Millard2012EquilibriumMuscle: its curves and properties (nullptr for other muscle types).
+  std::shared_ptr<const millard2012::Curves> millard;
   std::vector<PathPoint> path;
   std::vector<PathWrap> wraps;  // in the order OpenSim applies them
 };
@@ -138,6 +145,15 @@ struct CoordinateCoupler {
   int independent = -1;
   Function function = Function::linear(1.0, 0.0);
   double scale = 1.0;
+};
+
+// OpenSim's CoordinateLimitForce: a spring past each end of a coordinate's range, its stiffness
+// switched on over `transition` by a quintic step, and damping while either is on. SI units (rad or
+// m, N m/rad or N/m); the document's degrees are converted when read.
+struct CoordinateLimitForce {
+  std::string name;
+  int coordinate = -1;
+  double upper_stiffness = 0, upper_limit = 0, lower_stiffness = 0, lower_limit = 0, damping = 0, transition = 0;
 };
 
 class Model {
@@ -152,6 +168,7 @@ class Model {
   std::vector<Muscle> muscles;
   std::vector<WrapObject> wrap_objects;
   std::vector<CoordinateCoupler> couplers;  // in file order; a dependent coordinate is no coupler's independent one
+  std::vector<CoordinateLimitForce> coordinate_limit_forces;
 
   int num_coordinates() const { return static_cast<int>(coordinates.size()); }
   int body_index(std::string_view name) const;

@@ -1,0 +1,77 @@
+#pragma once
+// OpenSim's Millard2012EquilibriumMuscle: Millard et al. (2013)'s curves as OpenSim builds them
+// (SmoothSegmentedFunctionFactory, from each curve's properties and OpenSim's defaults), its
+// fixed-width pennation, and the forces static optimization asks of it. Lengths normalised by
+// optimal fibre length, velocities by optimal fibre length x max contraction velocity, forces by
+// max isometric force.
+#include <optional>
+
+#include "cpgait/model/model.h"
+#include "cpgait/muscles/smooth_segmented_function.h"
+
+namespace cpgait::millard2012 {
+
+// Each curve's OpenSim properties, with OpenSim's defaults.
+struct ActiveForceLengthParameters {
+  double min_norm_active_fiber_length = 0.47 - 0.0259;
+  double transition_norm_fiber_length = 0.73;
+  double max_norm_active_fiber_length = 1.8123;
+  double shallow_ascending_slope = 0.8616;
+  double minimum_value = 0.1;
+};
+struct ForceVelocityParameters {
+  double concentric_slope_at_vmax = 0.0;
+  double concentric_slope_near_vmax = 0.25;
+  double isometric_slope = 5.0;
+  double eccentric_slope_at_vmax = 0.0;
+  double eccentric_slope_near_vmax = 0.15;
+  double max_eccentric_velocity_force_multiplier = 1.4;
+  double concentric_curviness = 0.6;
+  double eccentric_curviness = 0.9;
+};
+// The optional properties are either all given or all absent (then OpenSim's fitted curve).
+struct FiberForceLengthParameters {
+  double strain_at_zero_force = 0.0;
+  double strain_at_one_norm_force = 0.7;
+  std::optional<double> stiffness_at_low_force, stiffness_at_one_norm_force, curviness;
+};
+struct TendonForceLengthParameters {
+  double strain_at_one_norm_force = 0.049;
+  std::optional<double> stiffness_at_one_norm_force, norm_force_at_toe_end, curviness;
+};
+
+struct Parameters {
+  ActiveForceLengthParameters active_force_length;
+  ForceVelocityParameters force_velocity;
+  FiberForceLengthParameters fiber_force_length;
+  TendonForceLengthParameters tendon_force_length;
+  double fiber_damping = 0.1;            // normalised; below 1e-3 OpenSim switches to the undamped model
+  double minimum_activation = 0.01;
+  double maximum_pennation_angle_rad = 1.4706289056333368;  // acos(0.1)
+  bool ignore_tendon_compliance = false;
+};
+
+// The curves factory (OpenSim's SmoothSegmentedFunctionFactory). Each throws std::invalid_argument
+// naming the property that breaks OpenSim's conditions.
+SmoothSegmentedFunction fiber_active_force_length_curve(const ActiveForceLengthParameters& p);
+SmoothSegmentedFunction fiber_force_velocity_curve(const ForceVelocityParameters& p);
+SmoothSegmentedFunction fiber_force_length_curve(const FiberForceLengthParameters& p);
+SmoothSegmentedFunction tendon_force_length_curve(const TendonForceLengthParameters& p);
+
+// A muscle's curves as OpenSim's extendFinalizeFromProperties leaves them: with fibre damping or a
+// rigid tendon the active-force-length minimum and the force-velocity end slopes are set to zero
+// (the singularity-free model); an undamped elastic tendon keeps them at least 0.1.
+struct Curves {
+  Parameters parameters;
+  SmoothSegmentedFunction active_force_length, force_velocity, fiber_force_length, tendon_force_length;
+  bool use_fiber_damping = true;
+};
+Curves make_curves(const Parameters& p);
+
+// OpenSim's calcInextensibleTendonActiveFiberForce: the active fibre force along the tendon (N) with
+// the tendon at its slack length, static optimization's force at activation a. It reproduces
+// OpenSim 4's evaluation of the pennation angle at the normalised fibre length (a dimensional slip
+// that makes cos(pennation) ~1 for every fibre), so that static optimization matches OpenSim's.
+double rigid_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
+
+}  // namespace cpgait::millard2012

@@ -1,0 +1,41 @@
+#pragma once
+// OpenSim's SmoothSegmentedFunction: a C2-continuous curve made of quintic Bezier segments, each a
+// "corner" between two points with given slopes, extended linearly beyond its ends. Millard's muscle
+// curves are built from it (millard2012.h). y(x) is found by solving x(u) = x for the Bezier
+// parameter u (Newton, safeguarded by bisection: x(u) rises monotonically on every corner).
+#include <array>
+#include <vector>
+
+namespace cpgait {
+
+struct QuinticBezier {
+  std::array<double, 6> x, y;  // control points
+};
+
+// OpenSim's calcQuinticBezierCornerControlPoints: the segment from (x0, y0) with slope dydx0 to
+// (x1, y1) with slope dydx1, bent towards the slopes' intersection by `curviness` in [0, 1].
+// Throws std::invalid_argument where the two lines do not form a C-shaped corner.
+QuinticBezier quintic_bezier_corner(double x0, double y0, double dydx0, double x1, double y1, double dydx1,
+                                    double curviness);
+
+class SmoothSegmentedFunction {
+ public:
+  SmoothSegmentedFunction() = default;
+  // Segments in increasing x, each starting where the previous ends; outside [x0, x1] the curve
+  // continues along the straight lines through (x0, y0) and (x1, y1) with slopes dydx0, dydx1.
+  SmoothSegmentedFunction(std::vector<QuinticBezier> segments, double x0, double x1, double y0, double y1,
+                          double dydx0, double dydx1);
+  double value(double x) const;
+  double derivative(double x) const;  // dy/dx
+  bool empty() const { return segments_.empty(); }
+  double x_begin() const { return x0_; }
+  double x_end() const { return x1_; }
+
+ private:
+  // Index of the segment holding x and its Bezier parameter u.
+  void locate(double x, int& segment, double& u) const;
+  std::vector<QuinticBezier> segments_;
+  double x0_ = 0, x1_ = 0, y0_ = 0, y1_ = 0, dydx0_ = 0, dydx1_ = 0;
+};
+
+}  // namespace cpgait

@@ -1,0 +1,28 @@
+#include "cpgait/dynamics/passive_generalized_forces.h"
+
+namespace cpgait {
+namespace {
+
+// SimTK::Function::Step: y0 below x0, y1 above x1, a quintic t^3 (10 - 15 t + 6 t^2) between.
+double step(double y0, double y1, double x0, double x1, double x) {
+  if (x <= x0) return y0;
+  if (x >= x1) return y1;
+  const double t = (x - x0) / (x1 - x0);
+  return y0 + (y1 - y0) * t * t * t * (10 + t * (6 * t - 15));
+}
+
+}  // namespace
+
+double coordinate_limit_force(const CoordinateLimitForce& f, double q, double qd) {
+  const double k_up = step(0.0, f.upper_stiffness, f.upper_limit, f.upper_limit + f.transition, q);
+  const double k_low = step(f.lower_stiffness, 0.0, f.lower_limit - f.transition, f.lower_limit, q);
+  // Damping scales with how far each spring has switched on.
+  const double on = (f.upper_stiffness > 0 ? k_up / f.upper_stiffness : 0.0) + (f.lower_stiffness > 0 ? k_low / f.lower_stiffness : 0.0);
+  return -k_up * (q - f.upper_limit) + k_low * (f.lower_limit - q) - f.damping * on * qd;
+}
+
+void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, double* tau) {
+  for (const auto& f : model.coordinate_limit_forces) tau[f.coordinate] += coordinate_limit_force(f, q[f.coordinate], qd[f.coordinate]);
+}
+
+}  // namespace cpgait
