@@ -10,6 +10,7 @@
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/muscle_model.h"
 #include "test_support.h"
 
 using namespace cpgait;
@@ -84,6 +85,72 @@ TEST(Millard2012, UndampedElasticTendonKeepsTheCurvesAwayFromZero) {
   EXPECT_NEAR(c.force_velocity.derivative(1.2), 0.1, 1e-12);
   p.minimum_activation = 0.0;
   EXPECT_THROW(millard2012::make_curves(p), std::invalid_argument);
+}
+
+// A pennated Millard muscle with OpenSim's default curves (damped unless said otherwise).
+Muscle millard_muscle(double damping = 0.1) {
+  Muscle m;
+  m.name = "pennated";
+  m.max_isometric_force_N = 1000;
+  m.optimal_fiber_length_m = 0.1;
+  m.tendon_slack_length_m = 0.25;
+  m.pennation_angle_at_optimal_rad = 0.3;
+  m.sin_pennation_at_optimal = std::sin(0.3);
+  m.max_contraction_velocity = 10;
+  millard2012::Parameters p;
+  p.fiber_damping = damping;
+  m.millard = std::make_shared<const millard2012::Curves>(millard2012::make_curves(p));
+  return m;
+}
+
+// The compliant fibre's velocity balances the damped fibre force against the tendon's, and it is
+// zero at the static equilibrium length; with a slack path the fibre shortens, stretched it lengthens.
+TEST(Millard2012, CompliantFibreVelocityBalancesTendonAndFibre) {
+  for (double damping : {0.1, 0.0}) {
+    const Muscle m = millard_muscle(damping);
+    const auto& c = *m.millard;
+    const double L = 0.1 * std::cos(0.3) + 0.25 * 1.02;  // fibre near optimal, tendon stretched 2 %
+    for (double a : {0.05, 0.3, 1.0}) {
+      const double lm = muscles::compliant_equilibrium_fiber_length(m, a, L, 0.0);
+      const CompliantTendonFiber still = muscles::compliant_tendon_fiber(m, a, L, lm);
+      EXPECT_NEAR(still.fiber_velocity_m_s, 0.0, 1e-6) << a << " " << damping;
+      const double lN = lm / 0.1, cos_pen = std::sqrt(1 - std::pow(0.1 * std::sin(0.3) / lm, 2));
+      EXPECT_NEAR(still.cos_pennation, cos_pen, 1e-12);
+      EXPECT_NEAR(still.force_N, 1000 * (a * c.active_force_length.value(lN) + c.fiber_force_length.value(lN)) * cos_pen,
+                  1e-4);
+      for (double scale : {0.97, 1.03}) {
+        const CompliantTendonFiber f = muscles::compliant_tendon_fiber(m, a, L, lm * scale);
+        const double l = lm * scale, n = l / 0.1, vN = f.fiber_velocity_m_s / (0.1 * 10);
+        const double cp = std::sqrt(1 - std::pow(0.1 * std::sin(0.3) / l, 2));
+        const double fibre = (a * c.active_force_length.value(n) * c.force_velocity.value(vN) + c.fiber_force_length.value(n) +
+                              c.parameters.fiber_damping * vN) * cp;
+        EXPECT_NEAR(fibre * 1000, f.force_N, 1e-6) << a << " " << scale << " " << damping;
+        // A longer fibre leaves the tendon less stretched: the fibre must shorten, and vice versa.
+        if (scale > 1) EXPECT_LT(f.fiber_velocity_m_s, 0.0);
+        else EXPECT_GT(f.fiber_velocity_m_s, 0.0);
+      }
+    }
+  }
+}
+
+// With the tendon at its slack length the rigid-tendon force is the fibre's own: at optimal length
+// and no motion a*F0*cos(pennation) active, nothing passive; lengthening adds the damping force.
+TEST(Millard2012, RigidTendonForces) {
+  const Muscle m = millard_muscle();
+  const double L = 0.1 * std::cos(0.3) + 0.25;
+  const RigidTendonForces f = muscles::rigid_tendon_forces(m, 0.5, L, 0.0);
+  EXPECT_NEAR(f.active_N, 0.5 * 1000 * std::cos(0.3), 1e-9);
+  EXPECT_NEAR(f.passive_N, 0.0, 1e-9);
+  EXPECT_NEAR(muscles::rigid_tendon_fiber_length(m, L), 0.1, 1e-12);
+  const double V = 0.2;  // m/s along the path
+  const RigidTendonForces g = muscles::rigid_tendon_forces(m, 0.5, L, V);
+  const double vN = V * std::cos(0.3) / 1.0;
+  EXPECT_NEAR(g.active_N, 0.5 * 1000 * m.millard->force_velocity.value(vN) * std::cos(0.3), 1e-9);
+  EXPECT_NEAR(g.passive_N, 1000 * 0.1 * vN * std::cos(0.3), 1e-9);
+  // Static optimization's force (OpenSim's inextensible-tendon force) evaluates the pennation angle
+  // at the normalised length, as OpenSim 4 does: its cosine is that of asin(h / 1.0), not of 0.3.
+  const double h = 0.1 * std::sin(0.3);
+  EXPECT_NEAR(millard2012::inextensible_tendon_active_force(m, 1.0, L, 0.0), 1000 * std::cos(std::asin(h / 1.0)), 1e-9);
 }
 
 std::string read_text(const std::string& path) {

@@ -12,7 +12,7 @@
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/muscles/activation_dynamics.h"
-#include "cpgait/muscles/thelen2003.h"
+#include "cpgait/muscles/muscle_model.h"
 #include "cpgait/optim/dual_newton.h"
 
 namespace cpgait {
@@ -57,7 +57,6 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   ko.lowpass_cutoff_hz = options.lowpass_cutoff_hz;
   const CoordinateTrajectories traj = coordinate_trajectories(model, desired, ko);
   r.summary.warnings = traj.warnings;
-  if (auto w = muscle_model_warning(model); !w.empty()) r.summary.warnings.push_back(w);
   const double data_t0 = traj.time_s.front(), data_t1 = traj.time_s.back();
   const double T = options.window_s;
   const double t_first = options.time_range_s ? options.time_range_s->first : data_t0;
@@ -160,19 +159,19 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   Eigen::VectorXd b(nq), lo(nx), hi(nx), sol, lambda, f_opt(nm), f_pass(nm), a_lo(nm), a_hi(nm), qdd_des(nq);
   // Rigid tendons: fibre length and velocity from the path at the predicted state, where the forces
   // are solved. Compliant tendons: the path length now and at the window's end.
-  Eigen::VectorXd fiber_length(nm), fiber_speed(nm), path_start(nm), path_end(nm);
+  Eigen::VectorXd path_length(nm), path_speed(nm), path_start(nm), path_end(nm);
   bool use_fiber_state = false;  // false: rigid-tendon fibres from the path (also the first solve)
   // The activation whose active force (plus passive) is sol[m] * f_opt[m], within [a_min, a_max].
   auto activation_for_solution = [&](int m, double a_min, double a_max) {
     const Muscle& mu = model.muscles[m];
     const double target = sol[m] * f_opt[m] - f_pass[m];
-    const double l = fiber_length[m], v = fiber_speed[m];
+    const double L = path_length[m], V = path_speed[m];
     double lo_a = a_min, hi_a = a_max;
-    if (thelen2003::active_fiber_force_along_tendon(mu, lo_a, l, v) >= target) return lo_a;
-    if (thelen2003::active_fiber_force_along_tendon(mu, hi_a, l, v) <= target) return hi_a;
+    if (muscles::rigid_tendon_active_force(mu, lo_a, L, V) >= target) return lo_a;
+    if (muscles::rigid_tendon_active_force(mu, hi_a, L, V) <= target) return hi_a;
     for (int i = 0; i < 50 && hi_a - lo_a > 1e-9; ++i) {
       const double mid = 0.5 * (lo_a + hi_a);
-      (thelen2003::active_fiber_force_along_tendon(mu, mid, l, v) < target ? lo_a : hi_a) = mid;
+      (muscles::rigid_tendon_active_force(mu, mid, L, V) < target ? lo_a : hi_a) = mid;
     }
     return 0.5 * (lo_a + hi_a);
   };
@@ -194,29 +193,27 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         // Compliant tendons, as OpenSim's CMC: each muscle's state integrated over the window with
         // its path moving to the predicted length, at the lowest and highest excitation.
         path_end[m] = ws.geometry.length_m[m];
-        f_opt[m] = std::max(thelen2003::rigid_tendon_active_force(mu, 1.0, ws.geometry.length_m[m],
-                                                                  ws.geometry.lengthening_speed_m_s[m]),
+        f_opt[m] = std::max(muscles::rigid_tendon_active_force(mu, 1.0, ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]),
                             1e-3 * mu.max_isometric_force_N);
         f_pass[m] = 0;
         const double a0 = x[sys.activation_index(m)], lm0 = x[sys.fiber_length_index(m)];
-        const double f_lo = thelen2003::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_min[m], T).force_N;
-        const double f_hi = thelen2003::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_max[m], T).force_N;
+        const double f_lo = muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_min[m], T).force_N;
+        const double f_hi = muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_max[m], T).force_N;
         lo[m] = std::min(f_lo, f_hi) / f_opt[m];
         hi[m] = std::max(f_lo, f_hi) / f_opt[m];
         A.col(m) = ws.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
         continue;
       }
-      const auto rf = thelen2003::rigid_tendon_fiber(mu, ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]);
-      fiber_length[m] = rf.fiber_length_m;
-      fiber_speed[m] = rf.fiber_velocity_m_s;
-      const double l = fiber_length[m], v = fiber_speed[m];
-      f_opt[m] = std::max(thelen2003::active_fiber_force_along_tendon(mu, 1.0, l, v), 1e-3 * mu.max_isometric_force_N);
-      f_pass[m] = thelen2003::passive_fiber_force_along_tendon(mu, l);
+      const double L = path_length[m] = ws.geometry.length_m[m], V = path_speed[m] = ws.geometry.lengthening_speed_m_s[m];
+      const RigidTendonForces full = muscles::rigid_tendon_forces(mu, 1.0, L, V);
+      f_opt[m] = std::max(full.active_N, 1e-3 * mu.max_isometric_force_N);
+      f_pass[m] = full.passive_N;
       A.col(m) = ws.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
       // Thelen's force-velocity curve scales with activation, so the force is not linear in it: the
-      // bounds are the forces at the reachable activations themselves.
-      lo[m] = (thelen2003::active_fiber_force_along_tendon(mu, a_lo[m], l, v) + f_pass[m]) / f_opt[m];
-      hi[m] = (thelen2003::active_fiber_force_along_tendon(mu, a_hi[m], l, v) + f_pass[m]) / f_opt[m];
+      // bounds are the forces at the reachable activations themselves (Millard's is linear; the same
+      // code serves both).
+      lo[m] = (muscles::rigid_tendon_active_force(mu, a_lo[m], L, V) + f_pass[m]) / f_opt[m];
+      hi[m] = (muscles::rigid_tendon_active_force(mu, a_hi[m], L, V) + f_pass[m]) / f_opt[m];
     }
     A.rightCols(na) = ws.actuator_columns;
     lo.tail(na) = u_min.tail(na);
@@ -261,7 +258,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     control_now.setZero();
     muscle_driven_derivatives(sys, t, x, excitation, control_now, ws, xdot);
     for (int m = 0; m < nm; ++m)
-      x[sys.fiber_length_index(m)] = thelen2003::compliant_equilibrium_fiber_length(
+      x[sys.fiber_length_index(m)] = muscles::compliant_equilibrium_fiber_length(
           model.muscles[m], x[sys.activation_index(m)], ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]);
   };
 
@@ -348,7 +345,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         const double a0 = x[sys.activation_index(m)], lm0 = x[sys.fiber_length_index(m)];
         const double target = sol[m] * f_opt[m];
         double u_lo = u_min[m], u_hi = u_max[m];
-        auto force = [&](double u) { return thelen2003::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u, T).force_N; };
+        auto force = [&](double u) { return muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u, T).force_N; };
         if (target <= lo[m] * f_opt[m] + 1e-9) {
           excitation[m] = u_lo;
         } else if (target >= hi[m] * f_opt[m] - 1e-9) {
@@ -493,7 +490,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       muscle_path_geometry(model, q.data(), u.data(), kws, S, g);
       for (int m = 0; m < nm; ++m)
         r.fiber_length_m(i, m) = sys.compliant_tendons ? rec_x[i][sys.fiber_length_index(m)]
-                                                      : thelen2003::rigid_tendon_fiber(model.muscles[m], g.length_m[m], 0).fiber_length_m;
+                                                      : muscles::rigid_tendon_fiber_length(model.muscles[m], g.length_m[m]);
     }
   }
   r.controls.resize(rec_controls.size(), nx);

@@ -81,7 +81,7 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     for (int m = 0; m < nm; ++m) {
       const Muscle& mu = model.muscles[m];
       f_opt[m] = !options.use_muscle_physiology ? mu.max_isometric_force_N
-                 : mu.millard ? millard2012::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
+                 : mu.millard ? millard2012::inextensible_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
                               : thelen2003::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m]);
       A.col(m) = geometry.moment_arm_m.row(m).transpose() * f_opt[m];
     }

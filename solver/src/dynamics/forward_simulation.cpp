@@ -8,7 +8,7 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
-#include "cpgait/muscles/thelen2003.h"
+#include "cpgait/muscles/muscle_model.h"
 
 namespace cpgait {
 
@@ -135,7 +135,7 @@ Eigen::VectorXd initial_state_from_table(const Model& model, const Storage& stat
     x[2 * nq + m] = ca >= 0 ? states.data(row, ca) : std::max(mu.min_control, 0.02);
     if (!compliant) continue;
     x[2 * nq + nm + m] = cl >= 0 ? states.data(row, cl)
-                                 : thelen2003::compliant_equilibrium_fiber_length(mu, x[2 * nq + m], g.length_m[m],
+                                 : muscles::compliant_equilibrium_fiber_length(mu, x[2 * nq + m], g.length_m[m],
                                                                                   g.lengthening_speed_m_s[m]);
   }
   return x;
@@ -164,7 +164,6 @@ ForwardSimulationResult forward_simulation(const Model& model, const ResolvedAct
   if (sys.contacts)
     for (const auto& s : sys.contacts->spheres) r.contact_names.push_back(s.name);
 
-  if (auto w = muscle_model_warning(model); !w.empty()) r.warnings.push_back(w);
   const bool correcting = o.correction_kp || o.correction_kv;
   std::optional<CoordinateTrajectories> want;
   if (correcting) {

@@ -2,7 +2,7 @@
 
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/muscles/activation_dynamics.h"
-#include "cpgait/muscles/thelen2003.h"
+#include "cpgait/muscles/muscle_model.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -27,16 +27,6 @@ Eigen::Vector3d point_velocity_in_ground(const MotionSubspace& S, const std::vec
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
   for (int c : body_coordinates) v += point_velocity_column(S, c, p) * u[c];
   return v;
-}
-
-std::string muscle_model_warning(const Model& model) {
-  int n = 0;
-  std::string first;
-  for (const auto& mu : model.muscles)
-    if (mu.millard && n++ == 0) first = mu.name;
-  if (!n) return "";
-  return std::to_string(n) + " Millard2012EquilibriumMuscle muscles (first '" + first +
-         "'): forward dynamics approximates their force-length-velocity curves by Thelen 2003's";
 }
 
 void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
@@ -86,12 +76,12 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       const double a = x[sys.activation_index(m)];
       const double l = ws.geometry.length_m[m], v = ws.geometry.lengthening_speed_m_s[m];
       if (sys.compliant_tendons) {
-        const auto f = thelen2003::compliant_tendon_fiber(mu, a, l, x[sys.fiber_length_index(m)]);
+        const auto f = muscles::compliant_tendon_fiber(mu, a, l, x[sys.fiber_length_index(m)]);
         ws.muscle_force_N[m] = f.force_N;
         ws.fiber_velocity_m_s[m] = f.fiber_velocity_m_s;
         xdot[sys.fiber_length_index(m)] = f.fiber_velocity_m_s;
       } else {
-        const auto f = thelen2003::rigid_tendon_forces(mu, a, l, v);
+        const auto f = muscles::rigid_tendon_forces(mu, a, l, v);
         ws.active_force_N[m] = f.active_N;
         ws.muscle_force_N[m] = f.active_N + f.passive_N;
       }
@@ -138,17 +128,17 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
     jac.da_da[m] = (thelen_activation_rate(mu, excitation[m], a + da) - xdot[sys.activation_index(m)]) / da;
     if (sys.compliant_tendons) {
       const double lm = x[sys.fiber_length_index(m)], dl = 1e-7 * mu.optimal_fiber_length_m;
-      const auto f0 = thelen2003::compliant_tendon_fiber(mu, a, L, lm);
-      const auto fl = thelen2003::compliant_tendon_fiber(mu, a, L, lm + dl);
-      const auto fa = thelen2003::compliant_tendon_fiber(mu, a + da, L, lm);
+      const auto f0 = muscles::compliant_tendon_fiber(mu, a, L, lm);
+      const auto fl = muscles::compliant_tendon_fiber(mu, a, L, lm + dl);
+      const auto fa = muscles::compliant_tendon_fiber(mu, a + da, L, lm);
       jac.dl_dl[m] = (fl.fiber_velocity_m_s - f0.fiber_velocity_m_s) / dl;
       jac.dl_da[m] = (fa.fiber_velocity_m_s - f0.fiber_velocity_m_s) / da;
       jac.dF_dl[m] = (fl.force_N - f0.force_N) / dl;
     } else {
       const double F = ws.active_force_N[m];
       const double dV = 1e-6 * mu.optimal_fiber_length_m * mu.max_contraction_velocity;
-      jac.dF_da[m] = (thelen2003::rigid_tendon_active_force(mu, a + da, L, V) - F) / da;
-      jac.dF_dV[m] = std::max(0.0, (thelen2003::rigid_tendon_active_force(mu, a, L, V + dV) - F) / dV);
+      jac.dF_da[m] = (muscles::rigid_tendon_active_force(mu, a + da, L, V) - F) / da;
+      jac.dF_dV[m] = std::max(0.0, (muscles::rigid_tendon_active_force(mu, a, L, V + dV) - F) / dV);
     }
   }
   jac.factored_gamma_h = -1;

@@ -11,7 +11,7 @@
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/muscles/activation_dynamics.h"
-#include "cpgait/muscles/thelen2003.h"
+#include "cpgait/muscles/muscle_model.h"
 
 namespace cpgait {
 
@@ -80,7 +80,6 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   // The reference, its root coordinates, and the start.
   const CoordinateTrajectories ref = coordinate_trajectories(model, reference, {});
   r.warnings.insert(r.warnings.end(), ref.warnings.begin(), ref.warnings.end());
-  if (auto w = muscle_model_warning(model); !w.empty()) r.warnings.push_back(w);
   // The reference at reference time tau, its rates scaled to simulated time by the speed knob.
   auto reference_at = [&](double tau, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) {
     trajectories_at(ref, tau, q, u, a);
@@ -148,7 +147,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   muscle_driven_derivatives(sys, 0.0, x, excitation, no_controls, ws, xdot);
   if (o.compliant_tendons)
     for (int m = 0; m < nm; ++m)
-      x[sys.fiber_length_index(m)] = thelen2003::compliant_equilibrium_fiber_length(
+      x[sys.fiber_length_index(m)] = muscles::compliant_equilibrium_fiber_length(
           model.muscles[m], x[sys.activation_index(m)], ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]);
   // The pelvis height: pelvis_ty, or the root's fifth coordinate (OpenSim's free-joint order).
   const int height_coordinate = model.coordinate_index("pelvis_ty") >= 0 ? model.coordinate_index("pelvis_ty")

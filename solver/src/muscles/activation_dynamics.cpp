@@ -3,10 +3,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cpgait/muscles/millard2012.h"
+
 namespace cpgait {
 
 double thelen_activation_rate(const Muscle& m, double u, double a) {
   u = std::clamp(u, m.min_control, m.max_control);
+  // Millard's activation model is the same equation with the activation held to its range.
+  if (m.millard) a = std::clamp(a, m.millard->parameters.minimum_activation, 1.0);
   const double tau = u > a ? m.activation_time_constant_s * (0.5 + 1.5 * a) : m.deactivation_time_constant_s / (0.5 + 1.5 * a);
   return (u - a) / tau;
 }

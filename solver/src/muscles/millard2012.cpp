@@ -159,6 +159,18 @@ Curves make_curves(const Parameters& p) {
   c.parameters.force_velocity = fv;
   c.active_force_length = fiber_active_force_length_curve(fal);
   c.force_velocity = fiber_force_velocity_curve(fv);
+  {
+    // OpenSim's fvInvCurve: the same corners with x and y swapped, end slopes kept at 0.1 or more.
+    ForceVelocityParameters inv = fv;
+    if (inv.concentric_slope_at_vmax < 0.1 || inv.eccentric_slope_at_vmax < 0.1)
+      inv.concentric_slope_at_vmax = inv.eccentric_slope_at_vmax = 0.1;
+    const SmoothSegmentedFunction f = fiber_force_velocity_curve(inv);
+    std::vector<QuinticBezier> swapped;
+    for (const auto& seg : f.segments()) swapped.push_back({seg.y, seg.x});
+    c.force_velocity_inverse = SmoothSegmentedFunction(std::move(swapped), 0.0, inv.max_eccentric_velocity_force_multiplier,
+                                                       -1.0, 1.0, 1.0 / inv.concentric_slope_at_vmax,
+                                                       1.0 / inv.eccentric_slope_at_vmax);
+  }
   c.fiber_force_length = fiber_force_length_curve(p.fiber_force_length);
   c.tendon_force_length = tendon_force_length_curve(p.tendon_force_length);
   return c;
@@ -189,18 +201,108 @@ struct FixedWidthPennation {
   }
 };
 
+// Millard's fibre length floor (OpenSim's m_minimumFiberLength).
+double shortest_fiber(const Muscle& m, const Curves& c, const FixedWidthPennation& pen) {
+  return std::max(1e-14, std::max(c.parameters.active_force_length.min_norm_active_fiber_length * m.optimal_fiber_length_m,
+                                  pen.min_fiber_length));
+}
+
+// OpenSim's calcDampedNormFiberVelocity: the normalised fibre velocity at which the damped fibre's
+// force along the tendon equals the tendon's; Newton from the inverse force-velocity curve's guess.
+// The residual rises strictly with the velocity (fv' >= 0, damping > 0), so the root is unique.
+double damped_norm_fiber_velocity(const Curves& c, double a, double fal, double fpe, double fse, double cos_pen) {
+  const double beta = c.parameters.fiber_damping;
+  const double fv_guess = (fse / std::max(cos_pen, 0.01) - fpe) / (std::max(a, 0.01) * std::max(fal, 0.01));
+  double v = std::clamp(c.force_velocity_inverse.value(fv_guess), -1.0, 1.0);
+  for (int it = 0; it < 50; ++it) {
+    double fv, dfv;
+    c.force_velocity.value_and_derivative(v, fv, dfv);
+    const double err = (a * fal * fv + fpe + beta * v) * cos_pen - fse;
+    if (std::abs(err) <= 1e-10) break;  // OpenSim's tolerance, 1e-10 max isometric force
+    v -= err / ((a * fal * dfv + beta) * cos_pen);
+  }
+  return v;
+}
+
 }  // namespace
 
-double rigid_tendon_active_force(const Muscle& m, double activation, double L, double V) {
+double min_fiber_length(const Muscle& m) {
+  const Curves& c = *m.millard;
+  return shortest_fiber(m, c, FixedWidthPennation(m, c.parameters.maximum_pennation_angle_rad));
+}
+
+double rigid_tendon_fiber_length(const Muscle& m, double L) {
+  const Curves& c = *m.millard;
+  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  return std::max(pen.fiber_length(L, m.tendon_slack_length_m), shortest_fiber(m, c, pen));
+}
+
+RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double L, double V) {
+  const Curves& c = *m.millard;
+  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const double lmin = shortest_fiber(m, c, pen);
+  const double lce = rigid_tendon_fiber_length(m, L);
+  const double cos_pen = std::cos(pen.angle(lce));
+  double vN = 0.0, fv = 1.0;
+  // A slack tendon buckles: the fibre does not move with the path.
+  if (L - lce * cos_pen >= m.tendon_slack_length_m - 1e-14) {
+    vN = V * cos_pen / (m.optimal_fiber_length_m * m.max_contraction_velocity);
+    fv = c.force_velocity.value(vN);
+  }
+  if ((lce <= lmin && vN <= 0) || lce < lmin) vN = 0.0, fv = 1.0;  // held at its shortest
+  const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
+  const double lN = lce / m.optimal_fiber_length_m;
+  const double active = a * c.active_force_length.value(lN) * fv;
+  double passive = c.fiber_force_length.value(lN) + c.parameters.fiber_damping * vN;
+  if (active + passive < 0) passive = -active;  // a rigid tendon cannot push
+  return {m.max_isometric_force_N * active * cos_pen, m.max_isometric_force_N * passive * cos_pen};
+}
+
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm) {
+  const Curves& c = *m.millard;
+  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const double lmin = shortest_fiber(m, c, pen);
+  lm = std::max(lm, lmin);
+  const double cos_pen = std::cos(pen.angle(lm));
+  const double fse = c.tendon_force_length.value((L - lm * cos_pen) / m.tendon_slack_length_m);
+  const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
+  const double lN = lm / m.optimal_fiber_length_m;
+  const double fal = c.active_force_length.value(lN), fpe = c.fiber_force_length.value(lN);
+  double vN = c.use_fiber_damping ? damped_norm_fiber_velocity(c, a, fal, fpe, fse, cos_pen)
+                                  : c.force_velocity_inverse.value((fse / cos_pen - fpe) / (a * fal));
+  if (lm <= lmin && vN <= 0) vN = 0.0;
+  return {m.max_isometric_force_N * fse, vN * m.optimal_fiber_length_m * m.max_contraction_velocity, cos_pen};
+}
+
+double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double L, double V) {
+  const Curves& c = *m.millard;
+  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
+  auto residual = [&](double lm) {  // tendon minus fibre, normalised by max isometric force
+    const double cos_pen = std::cos(pen.angle(lm));
+    const double lN = lm / m.optimal_fiber_length_m;
+    const double vN = V * cos_pen / (m.optimal_fiber_length_m * m.max_contraction_velocity);
+    const double fibre = a * c.active_force_length.value(lN) * c.force_velocity.value(vN) + c.fiber_force_length.value(lN) +
+                         c.parameters.fiber_damping * vN;
+    return c.tendon_force_length.value((L - lm * cos_pen) / m.tendon_slack_length_m) - fibre * cos_pen;
+  };
+  double lo = shortest_fiber(m, c, pen);
+  double hi = std::max(pen.fiber_length(L, m.tendon_slack_length_m), lo);
+  if (residual(lo) <= 0) return lo;
+  if (residual(hi) >= 0) return hi;
+  for (int i = 0; i < 60 && hi - lo > 1e-12; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (residual(mid) > 0 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double inextensible_tendon_active_force(const Muscle& m, double activation, double L, double V) {
   const Curves& c = *m.millard;
   const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
   const double lce = pen.fiber_length(L, m.tendon_slack_length_m);
   const double dlce = V * std::cos(pen.angle(lce));
-  const double min_fiber_length = std::max(std::numeric_limits<double>::epsilon(),
-                                           std::max(c.parameters.active_force_length.min_norm_active_fiber_length *
-                                                        m.optimal_fiber_length_m,
-                                                    pen.min_fiber_length));
-  if (lce <= min_fiber_length) return 0.0;
+  if (lce <= shortest_fiber(m, c, pen)) return 0.0;
   const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
   const double lceN = lce / m.optimal_fiber_length_m;
   const double dlceN = dlce / (m.optimal_fiber_length_m * m.max_contraction_velocity);

@@ -49,7 +49,22 @@ QuinticBezier quintic_bezier_corner(double x0, double y0, double dydx0, double x
 
 SmoothSegmentedFunction::SmoothSegmentedFunction(std::vector<QuinticBezier> segments, double x0, double x1,
                                                  double y0, double y1, double dydx0, double dydx1)
-    : segments_(std::move(segments)), x0_(x0), x1_(x1), y0_(y0), y1_(y1), dydx0_(dydx0), dydx1_(dydx1) {}
+    : segments_(std::move(segments)), x0_(x0), x1_(x1), y0_(y0), y1_(y1), dydx0_(dydx0), dydx1_(dydx1) {
+  for (const auto& seg : segments_) {
+    std::array<Node, kTable + 1> t{};
+    for (int k = 0; k <= kTable; ++k) {
+      const double x = seg.x[0] + (seg.x[5] - seg.x[0]) * k / kTable;
+      double lo = 0, hi = 1;  // x(u) rises on a corner: bisection to machine precision
+      for (int it = 0; it < 60; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (bezier(seg.x, mid) < x ? lo : hi) = mid;
+      }
+      const double u = 0.5 * (lo + hi), dx = bezier_du(seg.x, u);
+      t[k] = {u, dx > 0 ? 1.0 / dx : 0.0};
+    }
+    u_table_.push_back(t);
+  }
+}
 
 void SmoothSegmentedFunction::locate(double x, int& segment, double& u) const {
   // As OpenSim's calcIndex: the first segment with x0 <= x < x5, the last one at its very end.
@@ -61,11 +76,25 @@ void SmoothSegmentedFunction::locate(double x, int& segment, double& u) const {
       break;
     }
   const auto& px = segments_[segment].x;
-  double lo = 0, hi = 1;
-  u = (px[5] > px[0]) ? std::clamp((x - px[0]) / (px[5] - px[0]), 0.0, 1.0) : 0.5;
-  // OpenSim solves to 100 machine epsilons in x; bisection keeps Newton inside the bracket.
+  const double width = px[5] - px[0];
+  const double s = width > 0 ? std::clamp((x - px[0]) / width, 0.0, 1.0) * kTable : 0.0;
+  const int k = std::min(static_cast<int>(s), kTable - 1);
+  const Node& a = u_table_[segment][k];
+  const Node& b = u_table_[segment][k + 1];
+  // Cubic Hermite between the two nodes, in t in [0, 1] over a node spacing of width / kTable.
+  const double t = s - k, h = width / kTable, t2 = t * t, t3 = t2 * t;
+  u = (2 * t3 - 3 * t2 + 1) * a.u + (t3 - 2 * t2 + t) * h * a.du_dx + (-2 * t3 + 3 * t2) * b.u + (t3 - t2) * h * b.du_dx;
+  // From the interpolated start (|x(u) - x| ~1e-9) one Newton step lands within rounding of the root:
+  // the error squares. Otherwise Newton to OpenSim's 100 machine epsilons in x, with bisection where
+  // Newton would leave the bracket.
   const double tol = 100 * std::numeric_limits<double>::epsilon();
-  for (int it = 0; it < 100; ++it) {
+  const double f0 = bezier(px, u) - x;
+  if (std::abs(f0) <= 1e-7 * width) {
+    u = std::clamp(u - f0 / bezier_du(px, u), 0.0, 1.0);
+    return;
+  }
+  double lo = 0, hi = 1;
+  for (int it = 0; it < 60; ++it) {
     const double f = bezier(px, u) - x;
     if (std::abs(f) <= tol) return;
     (f > 0 ? hi : lo) = u;
@@ -84,6 +113,19 @@ double SmoothSegmentedFunction::value(double x) const {
   double u;
   locate(x, i, u);
   return bezier(segments_[i].y, u);
+}
+
+void SmoothSegmentedFunction::value_and_derivative(double x, double& y, double& dydx) const {
+  if (x < x0_ || x > x1_) {
+    y = value(x);
+    dydx = derivative(x);
+    return;
+  }
+  int i;
+  double u;
+  locate(x, i, u);
+  y = bezier(segments_[i].y, u);
+  dydx = bezier_du(segments_[i].y, u) / bezier_du(segments_[i].x, u);
 }
 
 double SmoothSegmentedFunction::derivative(double x) const {

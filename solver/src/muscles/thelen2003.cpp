@@ -157,31 +157,6 @@ CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, 
   return {force, vN * m.optimal_fiber_length_m * m.max_contraction_velocity, cos_pen};
 }
 
-CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm, double L0, double L1, double u,
-                                            double T) {
-  const int n = std::max(1, static_cast<int>(std::ceil(T / 1e-3 - 1e-9)));
-  const double h = T / n;
-  const double lm_min = min_fiber_length(m);
-  for (int i = 1; i <= n; ++i) {
-    a = thelen_activation_after(m, a, u, h);
-    const double L = L0 + (L1 - L0) * i / n;
-    // Backward Euler: g(l) = l - lm - h v(a, L, l) = 0 by Newton with a finite-difference slope;
-    // g rises monotonically (v falls as the fibre lengthens), so a safeguarded step always converges.
-    double l = lm;
-    for (int k = 0; k < 8; ++k) {
-      const double v = compliant_tendon_fiber(m, a, L, l).fiber_velocity_m_s;
-      const double g = l - lm - h * v;
-      const double dl = 1e-7 * m.optimal_fiber_length_m;
-      const double dg = 1.0 - h * (compliant_tendon_fiber(m, a, L, l + dl).fiber_velocity_m_s - v) / dl;
-      const double step = g / std::max(dg, 1.0);
-      l = std::max(l - step, lm_min);
-      if (std::abs(step) < 1e-9 * m.optimal_fiber_length_m) break;
-    }
-    lm = l;
-  }
-  return {a, lm, compliant_tendon_fiber(m, a, L1, lm).force_N};
-}
-
 double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double L, double V) {
   // Residual: tendon force minus fibre force (along the tendon); it falls as the fibre lengthens
   // (the tendon slackens while the fibre's passive force grows).

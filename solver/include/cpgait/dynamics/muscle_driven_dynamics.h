@@ -1,20 +1,20 @@
 #pragma once
-// The muscle-driven model's state derivative: skeleton (CRBA + RNEA bias), Thelen 2003 muscles with
-// rigid tendons and Thelen activation dynamics, ideal actuators (residuals, reserves), and either
-// measured external loads (GRF) or foot-ground contact spheres.
+// The muscle-driven model's state derivative: skeleton (CRBA + RNEA bias), each muscle by its own
+// model (muscles/muscle_model.h: Millard2012EquilibriumMuscle or Thelen 2003) with Thelen's
+// first-order activation dynamics, ideal actuators (residuals, reserves), the model's passive
+// generalized forces, and either measured external loads (GRF) or foot-ground contact spheres.
 //
 // State x = [q (nq), u = dq/dt (nq), activation (muscles), fibre length (muscles, compliant tendons
 // only)]. Inputs per evaluation: muscle excitations and actuator controls at that time (the caller
 // decides how they vary in time).
 //
-// Compliant tendons (OpenSim's Thelen2003Muscle): the fibre length is a state and the force is the
-// tendon's (thelen2003::compliant_tendon_fiber). Rigid tendons: the fibre follows the path
+// Compliant tendons (as OpenSim's muscles integrate them): the fibre length is a state and the force
+// is the tendon's (muscles::compliant_tendon_fiber). Rigid tendons: the fibre follows the path
 // (constant-thickness pennation), the force is a * F_active(l, v) + F_passive(l) and the only muscle
 // state is activation; what static optimization assumes. Rigid tendons overestimate passive forces
 // when a muscle is stretched (late swing's hamstrings by ~5x on gait2392), because the tendon does
 // not take up any of the stretch.
 #include <Eigen/Core>
-#include <string>
 #include <vector>
 
 #include "cpgait/activation/actuators.h"
@@ -59,11 +59,6 @@ struct MuscleDrivenWorkspace {
   std::vector<Eigen::Vector3d> contact_force_N, contact_point_m;  // per sphere, ground frame
   explicit MuscleDrivenWorkspace(const MuscleDrivenSystem& sys);
 };
-
-// The warning to give where a model's muscles are not the Thelen 2003 muscles these dynamics compute
-// (Millard2012EquilibriumMuscle: its force-length-velocity curves are approximated by Thelen's);
-// empty when there are none.
-std::string muscle_model_warning(const Model& model);
 
 // xdot = f(t, x); excitation per muscle (clamped to its control range), control per actuator.
 void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const Eigen::VectorXd& x,

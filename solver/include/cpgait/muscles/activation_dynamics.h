@@ -1,5 +1,6 @@
 #pragma once
-// Thelen (2003) first-order activation dynamics, as OpenSim's Thelen2003Muscle:
+// Thelen (2003) first-order activation dynamics, as OpenSim's Thelen2003Muscle (and its
+// Millard2012EquilibriumMuscle, which also holds the activation to [minimum_activation, 1]):
 //   da/dt = (u - a) / tau,  tau = tau_act (0.5 + 1.5 a) when u > a (activating),
 //                           tau = tau_deact / (0.5 + 1.5 a) otherwise (deactivating),
 // with the excitation u clamped to the muscle's [min_control, max_control].

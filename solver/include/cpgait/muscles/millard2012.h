@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "cpgait/model/model.h"
+#include "cpgait/muscles/fiber_state.h"
 #include "cpgait/muscles/smooth_segmented_function.h"
 
 namespace cpgait::millard2012 {
@@ -64,6 +65,9 @@ SmoothSegmentedFunction tendon_force_length_curve(const TendonForceLengthParamet
 struct Curves {
   Parameters parameters;
   SmoothSegmentedFunction active_force_length, force_velocity, fiber_force_length, tendon_force_length;
+  // The inverse of a force-velocity curve with end slopes of at least 0.1 (OpenSim's fvInvCurve):
+  // exact for the undamped model, the damped one's starting guess.
+  SmoothSegmentedFunction force_velocity_inverse;
   bool use_fiber_damping = true;
 };
 Curves make_curves(const Parameters& p);
@@ -72,6 +76,23 @@ Curves make_curves(const Parameters& p);
 // the tendon at its slack length, static optimization's force at activation a. It reproduces
 // OpenSim 4's evaluation of the pennation angle at the normalised fibre length (a dimensional slip
 // that makes cos(pennation) ~1 for every fibre), so that static optimization matches OpenSim's.
-double rigid_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
+double inextensible_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
+
+// The shortest fibre: where the active force-length curve ends or pennation reaches its maximum.
+double min_fiber_length(const Muscle& m);
+
+// Rigid tendon (OpenSim's ignore_tendon_compliance): active a*fal*fv and passive fpe + damping*v,
+// along the tendon.
+RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
+double rigid_tendon_fiber_length(const Muscle& m, double path_length_m);
+
+// Elastic tendon at fibre length lm: the tendon force and the fibre velocity that balances it
+// (OpenSim's calcFiberVelocityInfo: Newton on the damped equilibrium, or the inverse force-velocity
+// curve without damping); the fibre is held at its minimum length while it would shorten there.
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m, double fiber_length_m);
+
+// The fibre length where tendon and fibre forces balance with the fibre moving at the path's speed
+// along it (bisection: the residual falls as the fibre lengthens).
+double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 
 }  // namespace cpgait::millard2012

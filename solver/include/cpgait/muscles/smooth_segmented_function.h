@@ -27,14 +27,23 @@ class SmoothSegmentedFunction {
                           double dydx0, double dydx1);
   double value(double x) const;
   double derivative(double x) const;  // dy/dx
+  void value_and_derivative(double x, double& y, double& dydx) const;  // one solve for both
   bool empty() const { return segments_.empty(); }
   double x_begin() const { return x0_; }
   double x_end() const { return x1_; }
+  const std::vector<QuinticBezier>& segments() const { return segments_; }
 
  private:
   // Index of the segment holding x and its Bezier parameter u.
   void locate(double x, int& segment, double& u) const;
   std::vector<QuinticBezier> segments_;
+  // Per segment, u and du/dx at evenly spaced x: their cubic Hermite interpolant starts Newton within
+  // ~1e-8 of the root, and one step finishes (OpenSim starts from a spline of u(x) too).
+  static constexpr int kTable = 32;
+  struct Node {
+    double u, du_dx;
+  };
+  std::vector<std::array<Node, kTable + 1>> u_table_;
   double x0_ = 0, x1_ = 0, y0_ = 0, y1_ = 0, dydx0_ = 0, dydx1_ = 0;
 };
 

@@ -3,6 +3,7 @@
 // (constant thickness) pennation model. Lengths normalised by optimal fibre length, velocities by
 // optimal fibre length x max contraction velocity, forces by max isometric force.
 #include "cpgait/model/model.h"
+#include "cpgait/muscles/fiber_state.h"
 
 namespace cpgait::thelen2003 {
 
@@ -29,9 +30,6 @@ double rigid_tendon_active_force(const Muscle& m, double activation, double path
 // Passive fibre force along the tendon (N) for an inextensible tendon.
 double rigid_tendon_passive_force(const Muscle& m, double path_length_m);
 // Both at once (one fibre geometry), for the dynamics' every evaluation.
-struct RigidTendonForces {
-  double active_N, passive_N;
-};
 RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 
 // Active fibre force along the tendon (N) at a fibre length and velocity (either tendon model).
@@ -45,22 +43,8 @@ double min_fiber_length(const Muscle& m);  // where pennation reaches OpenSim's 
 // tendon, stretched to L - lm cos(alpha), sets the force; the contractile element carries that
 // force (along the fibre) minus the parallel elastic part, and Thelen's inverse force-velocity
 // relation turns it into the fibre's velocity.
-struct CompliantTendonFiber {
-  double force_N;            // tendon force
-  double fiber_velocity_m_s; // d(fibre length)/dt
-  double cos_pennation;
-};
 CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m,
                                             double fiber_length_m);
-// A compliant muscle's state after `duration_s` of constant excitation while its path length moves
-// linearly from L0 to L1: activation by RK4, fibre length by backward Euler (the fibre equation is
-// stiff at low activation: its rate constant reaches ~1e4 /s), 1 ms substeps. CMC's force predictor.
-struct CompliantMuscleState {
-  double activation, fiber_length_m, force_N;
-};
-CompliantMuscleState compliant_muscle_after(const Muscle& m, double activation, double fiber_length_m, double L0_m,
-                                            double L1_m, double excitation, double duration_s);
-
 // The fibre length at which tendon and fibre forces balance with the fibre moving at its share of
 // the path's speed: the initial state of a compliant muscle.
 double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double path_length_m,

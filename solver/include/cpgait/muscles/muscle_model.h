@@ -1,0 +1,30 @@
+#pragma once
+// A muscle's forces by its own model: OpenSim's Millard2012EquilibriumMuscle (millard2012.h) for the
+// muscles that are one, Thelen 2003 (thelen2003.h) for the others. The dynamics, CMC and the gait
+// call these; the models' own functions stay specific.
+#include "cpgait/model/model.h"
+#include "cpgait/muscles/fiber_state.h"
+
+namespace cpgait::muscles {
+
+// Rigid tendon at path length L (m) and lengthening speed V (m/s).
+RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
+double rigid_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
+double rigid_tendon_fiber_length(const Muscle& m, double path_length_m);
+
+// Compliant tendon with the fibre length a state.
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m,
+                                            double fiber_length_m);
+
+// The fibre length at which tendon and fibre forces balance with the fibre moving at the path's
+// speed along it: a compliant muscle's initial state.
+double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double path_length_m,
+                                          double path_speed_m_s);
+
+// A compliant muscle's state after `duration_s` of constant excitation while its path length moves
+// linearly from L0 to L1: activation by RK4, fibre length by backward Euler (the fibre equation is
+// stiff at low activation: its rate constant reaches ~1e4 /s), 1 ms substeps. CMC's force predictor.
+CompliantMuscleState compliant_muscle_after(const Muscle& m, double activation, double fiber_length_m, double L0_m,
+                                            double L1_m, double excitation, double duration_s);
+
+}  // namespace cpgait::muscles

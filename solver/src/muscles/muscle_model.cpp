@@ -1,0 +1,57 @@
+#include "cpgait/muscles/muscle_model.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/thelen2003.h"
+
+namespace cpgait::muscles {
+
+RigidTendonForces rigid_tendon_forces(const Muscle& m, double a, double L, double V) {
+  return m.millard ? millard2012::rigid_tendon_forces(m, a, L, V) : thelen2003::rigid_tendon_forces(m, a, L, V);
+}
+
+double rigid_tendon_active_force(const Muscle& m, double a, double L, double V) {
+  return m.millard ? millard2012::rigid_tendon_forces(m, a, L, V).active_N : thelen2003::rigid_tendon_active_force(m, a, L, V);
+}
+
+double rigid_tendon_fiber_length(const Muscle& m, double L) {
+  return m.millard ? millard2012::rigid_tendon_fiber_length(m, L) : thelen2003::rigid_tendon_fiber(m, L, 0.0).fiber_length_m;
+}
+
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double a, double L, double lm) {
+  return m.millard ? millard2012::compliant_tendon_fiber(m, a, L, lm) : thelen2003::compliant_tendon_fiber(m, a, L, lm);
+}
+
+double compliant_equilibrium_fiber_length(const Muscle& m, double a, double L, double V) {
+  return m.millard ? millard2012::compliant_equilibrium_fiber_length(m, a, L, V)
+                   : thelen2003::compliant_equilibrium_fiber_length(m, a, L, V);
+}
+
+CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm, double L0, double L1, double u, double T) {
+  const int n = std::max(1, static_cast<int>(std::ceil(T / 1e-3 - 1e-9)));
+  const double h = T / n;
+  const double lm_min = m.millard ? millard2012::min_fiber_length(m) : thelen2003::min_fiber_length(m);
+  for (int i = 1; i <= n; ++i) {
+    a = thelen_activation_after(m, a, u, h);
+    const double L = L0 + (L1 - L0) * i / n;
+    // Backward Euler: g(l) = l - lm - h v(a, L, l) = 0 by Newton with a finite-difference slope;
+    // g rises monotonically (v falls as the fibre lengthens), so a safeguarded step always converges.
+    double l = lm;
+    for (int k = 0; k < 8; ++k) {
+      const double v = compliant_tendon_fiber(m, a, L, l).fiber_velocity_m_s;
+      const double g = l - lm - h * v;
+      const double dl = 1e-7 * m.optimal_fiber_length_m;
+      const double dg = 1.0 - h * (compliant_tendon_fiber(m, a, L, l + dl).fiber_velocity_m_s - v) / dl;
+      const double step = g / std::max(dg, 1.0);
+      l = std::max(l - step, lm_min);
+      if (std::abs(step) < 1e-9 * m.optimal_fiber_length_m) break;
+    }
+    lm = l;
+  }
+  return {a, lm, compliant_tendon_fiber(m, a, L1, lm).force_N};
+}
+
+}  // namespace cpgait::muscles
