@@ -5,6 +5,7 @@
 #include <random>
 
 #include "cpgait/activation/static_optimization.h"
+#include "cpgait/capture/actuator_set.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/model/osim_reader.h"
@@ -197,4 +198,35 @@ TEST(Actuators, PointAndTorqueActuatorsActThroughTheJacobian) {
   rnea(m, q.data(), zero.data(), zero.data(), ext, dws, tau1.data());
   EXPECT_LT((tau0 - tau1 - G.col(0) - G.col(1)).cwiseAbs().maxCoeff(), 1e-10);
   EXPECT_DOUBLE_EQ(G(m.coordinate_index("knee_angle_l"), 0), 0.0);  // other leg untouched
+}
+
+// leg6dof9musc's patella follows the knee (a CoordinateCouplerConstraint): static optimization
+// balances moments on the free coordinates only, with the patella's share carried through the
+// coupler, as OpenSim's does. Treated as an ordinary coordinate, the patella's own row (the
+// quadriceps pulling on it, nothing else acting) cannot be met at any frame.
+TEST(StaticOptimization, CoupledCoordinateIsBalancedThroughItsCoupler) {
+  const std::string dir = refdata::shared_path("opensim/opensim-core-tests/CMC/");
+  for (const char* f : {"leg6dof9musc.osim", "leg69_IK_swing.mot", "leg69_CMC_residuals_motors.xml"}) REQUIRE_REFERENCE(dir + f);
+  const Model m = read_osim(dir + "leg6dof9musc.osim").model;
+  ASSERT_EQ(m.couplers.size(), 1u);
+  const Storage coords = read_storage(dir + "leg69_IK_swing.mot");
+  const ResolvedActuators acts(m, read_actuators(dir + "leg69_CMC_residuals_motors.xml"));
+  StaticOptimizationOptions o;
+  o.lowpass_cutoff_hz = 6;
+  const StaticOptimizationResult r = static_optimization(m, coords, nullptr, acts, o);
+  std::printf("coupled SO: %d frames, %d not converged, largest violation %.1e\n", r.summary.frames,
+              r.summary.frames_not_converged, r.summary.max_equality_violation);
+  EXPECT_GT(r.summary.frames, 25);
+  EXPECT_EQ(r.summary.frames_not_converged, 0);
+  EXPECT_LT(r.summary.max_equality_violation, 1e-6);
+  // The vastus, which pulls only on the patella, still works: the coupler carries its force to the knee.
+  const int vas = std::find(r.names.begin(), r.names.end(), "vas_int_r") - r.names.begin();
+  ASSERT_LT(vas, static_cast<int>(r.names.size()));
+  EXPECT_GT(r.forces.col(vas).maxCoeff(), 1.0);
+
+  Model uncoupled = m;
+  uncoupled.couplers.clear();
+  const ResolvedActuators acts2(uncoupled, read_actuators(dir + "leg69_CMC_residuals_motors.xml"));
+  const StaticOptimizationResult u = static_optimization(uncoupled, coords, nullptr, acts2, o);
+  EXPECT_EQ(u.summary.frames_not_converged, u.summary.frames);
 }

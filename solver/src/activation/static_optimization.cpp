@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 
+#include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/dynamics/rnea.h"
@@ -52,6 +53,10 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     hi[nm + i] = actuators.spec(i).max_control;
   }
 
+  const bool coupled = !model.couplers.empty();
+  const std::vector<int> free = free_coordinates(model);
+  Eigen::MatrixXd G, A_free;
+  Eigen::VectorXd tau_free;
   KinematicsWorkspace<double> ws(model);
   MotionSubspace S(model);
   DynamicsWorkspace dws(model);
@@ -69,6 +74,11 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     q = k.q.row(i).transpose();
     qd = k.qd.row(i).transpose();
     qdd = k.qdd.row(i).transpose();
+    if (coupled) {
+      // The coupled coordinates where their constraints put them, as OpenSim assembles the state.
+      apply_coordinate_couplers(model, q.data());
+      apply_coupler_rates(model, q.data(), qd.data(), qdd.data());
+    }
     forward_kinematics(model, q.data(), ws);
     motion_subspace(model, q.data(), ws, S);
     if (loads) loads->wrenches_at(k.time_s[i], ws, external);
@@ -87,7 +97,13 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     }
     actuators.generalized_forces(model, ws, S, A.rightCols(na));
     for (int j = 0; j < na; ++j) f_opt[nm + j] = actuators.spec(j).optimal_force;
-    const DualNewtonSummary s = minimize_power_sum(A, tau, lo, hi, qp, lambda, x);
+    if (coupled) {
+      // Moment balance on the free coordinates only: G^T (A x - tau) = 0.
+      coupler_velocity_map(model, q.data(), free, G);
+      A_free.noalias() = G.transpose() * A;
+      tau_free.noalias() = G.transpose() * tau;
+    }
+    const DualNewtonSummary s = minimize_power_sum(coupled ? A_free : A, coupled ? tau_free : tau, lo, hi, qp, lambda, x);
     result.summary.total_iterations += s.iterations;
     if (!s.converged) ++result.summary.frames_not_converged;
     result.equality_violation[fi] = s.equality_residual;

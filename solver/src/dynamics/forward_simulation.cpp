@@ -6,6 +6,7 @@
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/muscles/muscle_model.h"
@@ -208,6 +209,10 @@ ForwardSimulationResult forward_simulation(const Model& model, const ResolvedAct
   ro.max_step_s = 0.01;
   std::vector<Eigen::VectorXd> rec_x, rec_fm, rec_fa, rec_c;
   auto record = [&](double t) {
+    if (!model.couplers.empty()) {  // back onto the constraint (OpenSim's projection), against drift
+      apply_coordinate_couplers(model, x.data());
+      apply_coupler_rates(model, x.data(), x.data() + nq);
+    }
     f(t, x, xdot);
     r.time_s.push_back(t);
     rec_x.push_back(x);

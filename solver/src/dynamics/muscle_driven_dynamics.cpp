@@ -1,5 +1,6 @@
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 
+#include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/muscle_model.h"
@@ -14,7 +15,7 @@ MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
       external(sys.model->bodies.size(), Vector6d::Zero()), tau(sys.num_coordinates()),
       muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
       active_force_N(Eigen::VectorXd::Zero(sys.num_muscles())),
-      actuator_force(sys.num_actuators()) {
+      actuator_force(sys.num_actuators()), free(free_coordinates(*sys.model)) {
   if (sys.contacts) {
     for (const auto& s : sys.contacts->spheres) sphere_coordinates.push_back(ancestor_coordinates(*sys.model, s.body));
     contact_force_N.assign(sys.contacts->spheres.size(), Eigen::Vector3d::Zero());
@@ -34,8 +35,15 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
                                MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot) {
   const Model& model = *sys.model;
   const int nq = sys.num_coordinates(), nm = sys.num_muscles(), na = sys.num_actuators();
-  const double* q = x.data();
-  const double* u = x.data() + nq;
+  const bool coupled = !model.couplers.empty();
+  if (coupled) {
+    // The coupled coordinates and speeds follow the independent ones, whatever the state holds.
+    ws.x_coupled = x;
+    apply_coordinate_couplers(model, ws.x_coupled.data());
+    apply_coupler_rates(model, ws.x_coupled.data(), ws.x_coupled.data() + nq);
+  }
+  const double* q = coupled ? ws.x_coupled.data() : x.data();
+  const double* u = q + nq;
   auto& fd = ws.fd;
   rnea_kinematics(model, q, u, fd.dynamics);  // pose, motion subspace and its rate in one pass
   kinematics_values(fd.dynamics, fd.kinematics, fd.S);
@@ -95,10 +103,21 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
     ws.tau.noalias() += ws.actuator_columns * control;
   }
   if (sys.generalized_forces) ws.tau += *sys.generalized_forces;
-  add_passive_generalized_forces(model, x.data(), x.data() + nq, ws.tau.data());
-  fd.llt.compute(fd.M);
-  xdot.head(nq) = x.segment(nq, nq);
-  xdot.segment(nq, nq) = fd.llt.solve(ws.tau - fd.bias);
+  add_passive_generalized_forces(model, q, u, ws.tau.data());
+  xdot.head(nq) = Eigen::Map<const Eigen::VectorXd>(u, nq);
+  fd.llt.compute(fd.M);  // callers (CMC, the correction controller, the gait) reuse the factor
+  if (!coupled) {
+    xdot.segment(nq, nq) = fd.llt.solve(ws.tau - fd.bias);
+    return;
+  }
+  // qdd = G qdd_free + c, c the coupled coordinates' scale f'' qd_ind^2; the free accelerations from
+  // G^T (M qdd + bias - tau) = 0.
+  coupler_velocity_map(model, q, ws.free, ws.G);
+  ws.c.setZero(nq);
+  for (const auto& cp : model.couplers) ws.c[cp.dependent] = cp.scale * cp.function.second_derivative(q[cp.independent]) * u[cp.independent] * u[cp.independent];
+  ws.M_free.noalias() = ws.G.transpose() * fd.M * ws.G;
+  const Eigen::VectorXd a_free = ws.M_free.llt().solve(ws.G.transpose() * (ws.tau - fd.bias - fd.M * ws.c));
+  xdot.segment(nq, nq) = ws.G * a_free + ws.c;
 }
 
 void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,

@@ -51,6 +51,10 @@ struct MuscleDrivenWorkspace {
   std::vector<AppliedLoads::Sample> load_samples;
   std::vector<std::vector<int>> sphere_coordinates;  // coordinates moving each sphere's body
   Eigen::VectorXd tau;
+  // Coupler constraints: the state with its coupled coordinates set, and the projection's parts.
+  Eigen::VectorXd x_coupled, c;
+  std::vector<int> free;
+  Eigen::MatrixXd G, M_free;
   // Outputs of the last evaluation.
   Eigen::VectorXd muscle_force_N;      // along the tendon
   Eigen::VectorXd fiber_velocity_m_s;  // compliant tendons: d(fibre length)/dt
