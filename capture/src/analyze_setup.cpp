@@ -25,11 +25,10 @@ AnalyzeSetup read_analyze_setup(const std::string& path) {
   s.lowpass_cutoff_hz = d.number(tool, "lowpass_cutoff_frequency_for_coordinates", -1);
   if (tool.child("initial_time") || tool.child("final_time"))
     s.time_range_s = std::make_pair(d.number(tool, "initial_time", 0.0), d.number(tool, "final_time", 1e30));
-  if (!d.text(tool, "states_file").empty())
-    throw InputError(path, d.line_of(tool.child("states_file")), "states_file",
-                     "states files are not supported yet; give a coordinates_file");
-  if (s.coordinates_file.empty())
-    throw InputError(path, d.line_of(tool), "coordinates_file", "the AnalyzeTool setup names no coordinates file");
+  s.states_file = d.text(tool, "states_file");
+  s.solve_for_equilibrium = d.boolean(tool, "solve_for_equilibrium_for_auxiliary_states", false);
+  if (s.coordinates_file.empty() && s.states_file.empty())
+    throw InputError(path, d.line_of(tool), "coordinates_file", "the AnalyzeTool setup names no coordinates file or states file");
   for (const auto& a : tool.child("AnalysisSet").child("objects").children()) {
     if (a.type() != pugi::node_element) continue;
     const std::string kind = a.name();
@@ -38,12 +37,13 @@ AnalyzeSetup read_analyze_setup(const std::string& path) {
       s.has_inverse_dynamics = true;
       if (d.boolean(a, "use_model_force_set", true))
         s.warnings.push_back(path + ":" + std::to_string(d.line_of(a)) +
-                             ": InverseDynamics: use_model_force_set is true, but the model's forces are not subtracted: "
-                             "the output is the net generalized forces");
+                             ": InverseDynamics: use_model_force_set is true, but only the model's passive coordinate forces are "
+                             "subtracted, not its muscles' and actuators'");
       continue;
     }
     if (kind == "MuscleAnalysis") {
       s.has_muscle_analysis = true;
+      s.muscle_analysis_name = a.attribute("name").value();
       s.muscle_analysis_step_interval = static_cast<int>(d.number(a, "step_interval", 1));
       if (s.muscle_analysis_step_interval < 1) d.fail(a.child("step_interval"), "step_interval must be at least 1");
       const std::string muscles = d.text(a, "muscle_list"), coords = d.text(a, "moment_arm_coordinate_list");

@@ -175,6 +175,8 @@ void run_so_setup(const std::string& setup_path, const ToolOverrides& o) {
   in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
   in.generic_model = o.generic_model;
   in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
+  if (in.coordinates.empty())
+    throw InputError(setup_path, 0, "coordinates_file", "static optimization needs a coordinates_file (cpgait reads a states file for MuscleAnalysis only)");
   in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
   for (const auto& f : s.force_set_files) in.actuator_files.push_back(resolve_setup_file(s.setup_dir, f, setup_path, "force_set_files"));
   in.use_model_actuators = s.use_model_force_set;

@@ -1,5 +1,6 @@
 // AnalyzeTool setups: StaticOptimization (cli_activation.cpp), InverseDynamics (cli_dynamics.cpp) and
 // MuscleAnalysis, written as OpenSim writes them.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
@@ -24,11 +25,34 @@ void run_muscle_analysis_setup(const std::string& setup_path, const AnalyzeSetup
   InverseDynamicsOptions ko;
   ko.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
   ko.time_range_s = s.time_range_s;
-  const CoordinateTrajectories k = coordinate_trajectories(
-      model, read_storage(resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file")), ko);
+  // A states file holds the coordinates under their own names (and speeds, activations and fibre
+  // lengths beside them); OpenSim takes the coordinates file when both are given.
+  const bool from_states = s.coordinates_file.empty();
+  const std::string data_path = from_states ? resolve_setup_file(s.setup_dir, s.states_file, setup_path, "states_file")
+                                            : resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
+  const Storage data = read_storage(data_path);
+  const CoordinateTrajectories k = coordinate_trajectories(model, data, ko);
   print_warnings(k.warnings);
   MuscleAnalysisOptions options;
   options.step_interval = s.muscle_analysis_step_interval;
+  // Fibre lengths: each muscle's isometric equilibrium at the states' activations, as OpenSim's
+  // solve_for_equilibrium_for_auxiliary_states sets them.
+  Eigen::MatrixXd activation;
+  if (from_states && s.solve_for_equilibrium) {
+    activation.resize(k.time_s.size(), model.muscles.size());
+    const Eigen::VectorXd t = data.time();
+    for (std::size_t m = 0; m < model.muscles.size(); ++m) {
+      const std::string& name = model.muscles[m].name;
+      int col = data.column(name + ".activation");
+      if (col < 0) col = data.column("/forceset/" + name + "/activation");
+      if (col < 0) throw InputError(data_path, 0, name + ".activation", "the states file has no activation for muscle '" + name + "'");
+      for (std::size_t i = 0; i < k.time_s.size(); ++i) {
+        const Eigen::Index row = std::lower_bound(t.data(), t.data() + t.size(), k.time_s[i] - 1e-9) - t.data();
+        activation(i, m) = data.data(std::min<Eigen::Index>(row, t.size() - 1), col);
+      }
+    }
+    options.activation = &activation;
+  }
   if (s.moment_arm_coordinates.size() == 1 && s.moment_arm_coordinates[0] == "all") {
     for (const auto& c : model.coordinates) options.moment_arm_coordinates.push_back(c.name);
   } else {
@@ -50,7 +74,8 @@ void run_muscle_analysis_setup(const std::string& setup_path, const AnalyzeSetup
   }
   const std::string dir = o.results_dir(s.setup_dir, s.results_directory);
   ensure_directory(dir);
-  const std::string prefix = (fs::path(dir) / ((s.name.empty() ? "analyze" : s.name) + "_MuscleAnalysis_")).string();
+  const std::string prefix =
+      (fs::path(dir) / ((s.name.empty() ? "analyze" : s.name) + "_" + s.muscle_analysis_name + "_")).string();
   std::vector<std::string> labels;
   for (int m : muscles) labels.push_back(model.muscles[m].name);
   auto write = [&](const Eigen::MatrixXd& all, const std::string& what) {
@@ -62,6 +87,7 @@ void run_muscle_analysis_setup(const std::string& setup_path, const AnalyzeSetup
   std::printf("%s\n", r.summary.BriefReport().c_str());
   write(r.length_m, "Length");
   write(r.lengthening_speed_m_s, "LengtheningSpeed");
+  if (r.fiber_length_m.size()) write(r.fiber_length_m, "FiberLength");
   for (std::size_t c = 0; c < options.moment_arm_coordinates.size(); ++c)
     write(r.moment_arm_m[c], "MomentArm_" + options.moment_arm_coordinates[c]);
 }

@@ -47,6 +47,8 @@ IdInputs id_inputs(const Setup& s, const std::string& setup_path, const ToolOver
   IdInputs in;
   in.model = o.model_file(s.setup_dir, s.model_file, setup_path);
   in.coordinates = resolve_setup_file(s.setup_dir, s.coordinates_file, setup_path, "coordinates_file");
+  if (in.coordinates.empty())
+    throw InputError(setup_path, 0, "coordinates_file", "inverse dynamics needs a coordinates_file (cpgait reads a states file for MuscleAnalysis only)");
   in.loads = resolve_setup_file(s.setup_dir, s.external_loads_file, setup_path, "external_loads_file");
   in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
   in.options.time_range_s = s.time_range_s;

@@ -9,6 +9,7 @@
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/xml_document.h"
 #include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/schutte1993.h"
 
 namespace cpgait {
 namespace {
@@ -613,7 +614,8 @@ class Reader {
         read_coordinate_limit_force(n);
         continue;
       }
-      if (type != "Thelen2003Muscle" && type != "Millard2012EquilibriumMuscle") {
+      const bool schutte = type == "Schutte1993Muscle" || type == "Schutte1993Muscle_Deprecated";
+      if (type != "Thelen2003Muscle" && type != "Millard2012EquilibriumMuscle" && !schutte) {
         warn(n, "force type not supported yet; ignored");
         continue;
       }
@@ -638,6 +640,8 @@ class Reader {
         mu.kshape_passive = d_.number(n, "KshapePassive", 5.0);
         mu.af = d_.number(n, "Af", 0.25);
         mu.flen = d_.number(n, "Flen", 1.4);
+      } else if (schutte) {
+        read_schutte(n, mu);
       } else {
         read_millard(n, mu);
       }
@@ -647,6 +651,32 @@ class Reader {
       m_.muscles.push_back(std::move(mu));
     }
   }
+
+  // Schutte1993Muscle's curves, each a function inside its property (OpenSim's defaults where absent;
+  // without a passive curve OpenSim uses its exponential).
+  void read_schutte(const xml_node& n, Muscle& mu) {
+    schutte1993::Curves c = schutte1993::default_curves();
+    auto curve = [&](const char* name, Function& f) {
+      const xml_node p = n.child(name);
+      for (const auto& e : p.children())
+        if (e.type() == pugi::node_element) {
+          f = read_function(e);
+          return true;
+        }
+      return false;
+    };
+    curve("tendon_force_length_curve", c.tendon_force_length);
+    curve("active_force_length_curve", c.active_force_length);
+    c.exponential_passive = !curve("passive_force_length_curve", c.passive_force_length);
+    c.damping = d_.number(n, "damping", c.damping);
+    mu.schutte = std::make_shared<const schutte1993::Curves>(std::move(c));
+    if (!warned_schutte_) {
+      warned_schutte_ = true;
+      warn(n, "its equilibrium fibre length follows OpenSim's; static optimization and the dynamics "
+              "use Thelen 2003's curves with its lengths and forces");
+    }
+  }
+  bool warned_schutte_ = false;
 
   // Stiffness per degree and limits in degrees for rotational coordinates, converted to SI here.
   void read_coordinate_limit_force(const xml_node& n) {

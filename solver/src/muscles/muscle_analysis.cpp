@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
+#include "cpgait/muscles/muscle_model.h"
 #include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait {
@@ -33,12 +35,20 @@ MuscleAnalysisResult muscle_analysis(const Model& model, const CoordinateTraject
   r.length_m.resize(rows.size(), nm);
   r.lengthening_speed_m_s.resize(rows.size(), nm);
   r.moment_arm_m.assign(coords.size(), Eigen::MatrixXd(rows.size(), nm));
+  if (options.activation) {
+    if (options.activation->rows() != static_cast<Eigen::Index>(kinematics.time_s.size()) || options.activation->cols() != nm)
+      throw std::invalid_argument("muscle_analysis: one activation per sample and muscle is needed");
+    r.fiber_length_m.resize(rows.size(), nm);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   KinematicsWorkspace<double> ws(model);
   MotionSubspace S(model);
   MusclePathGeometry g(model);
   for (std::size_t k = 0; k < rows.size(); ++k) {
-    const Eigen::VectorXd q = kinematics.q.row(rows[k]).transpose(), qd = kinematics.qd.row(rows[k]).transpose();
+    Eigen::VectorXd q = kinematics.q.row(rows[k]).transpose(), qd = kinematics.qd.row(rows[k]).transpose();
+    // Coupled coordinates where their constraints put them, as OpenSim's AnalyzeTool assembles each state.
+    apply_coordinate_couplers(model, q.data());
+    apply_coupler_rates(model, q.data(), qd.data());
     forward_kinematics(model, q.data(), ws);
     motion_subspace(model, q.data(), ws, S);
     muscle_path_geometry(model, q.data(), qd.data(), ws, S, g);
@@ -46,6 +56,9 @@ MuscleAnalysisResult muscle_analysis(const Model& model, const CoordinateTraject
     r.length_m.row(k) = g.length_m.transpose();
     r.lengthening_speed_m_s.row(k) = g.lengthening_speed_m_s.transpose();
     for (std::size_t c = 0; c < coords.size(); ++c) r.moment_arm_m[c].row(k) = g.moment_arm_m.col(coords[c]).transpose();
+    if (options.activation)
+      for (int m = 0; m < nm; ++m)
+        r.fiber_length_m(k, m) = muscles::isometric_fiber_length(model.muscles[m], (*options.activation)(rows[k], m), g.length_m[m]);
   }
   r.summary.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.summary.frames = static_cast<int>(rows.size());

@@ -5,6 +5,7 @@
 
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/schutte1993.h"
 #include "cpgait/muscles/thelen2003.h"
 
 namespace cpgait::muscles {
@@ -28,6 +29,10 @@ CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double a, double L,
 double compliant_equilibrium_fiber_length(const Muscle& m, double a, double L, double V) {
   return m.millard ? millard2012::compliant_equilibrium_fiber_length(m, a, L, V)
                    : thelen2003::compliant_equilibrium_fiber_length(m, a, L, V);
+}
+
+double isometric_fiber_length(const Muscle& m, double a, double L) {
+  return m.schutte ? schutte1993::isometric_fiber_length(m, a, L) : compliant_equilibrium_fiber_length(m, a, L, 0.0);
 }
 
 CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm, double L0, double L1, double u, double T) {

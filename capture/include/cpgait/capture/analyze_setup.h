@@ -16,6 +16,8 @@ struct AnalyzeSetup {
   bool replace_force_set = false;
   std::string results_directory = ".";
   std::string coordinates_file;
+  std::string states_file;  // used where no coordinates_file is given (MuscleAnalysis only)
+  bool solve_for_equilibrium = false;  // solve_for_equilibrium_for_auxiliary_states
   std::string external_loads_file;
   double lowpass_cutoff_hz = -1;
   std::optional<std::pair<double, double>> time_range_s;  // initial_time, final_time
@@ -30,6 +32,7 @@ struct AnalyzeSetup {
   // The MuscleAnalysis (absent when the setup has none).
   bool has_muscle_analysis = false;
   int muscle_analysis_step_interval = 1;
+  std::string muscle_analysis_name;  // names its output files: <tool>_<analysis>_Length.sto
   std::vector<std::string> muscle_list;  // empty: all muscles (OpenSim's "all")
   std::vector<std::string> moment_arm_coordinates;  // "all": every coordinate
   std::vector<std::string> warnings;  // analyses that are on but not run, by file and line

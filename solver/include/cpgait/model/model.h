@@ -20,6 +20,9 @@ namespace cpgait {
 namespace millard2012 {
 struct Curves;  // cpgait/muscles/millard2012.h
 }
+namespace schutte1993 {
+struct Curves;  // cpgait/muscles/schutte1993.h
+}
 
 // A rigid transform: x_parent = rotation * x_child + translation.
 struct Pose {
@@ -134,6 +137,9 @@ struct Muscle {
   double max_control = 1.0;
   // Millard2012EquilibriumMuscle: its curves and properties (nullptr for other muscle types).
   std::shared_ptr<const millard2012::Curves> millard;
+  // Schutte1993Muscle (OpenSim's deprecated Schutte1993Muscle_Deprecated): its curves (nullptr for
+  // other muscle types).
+  std::shared_ptr<const schutte1993::Curves> schutte;
   std::vector<PathPoint> path;
   std::vector<PathWrap> wraps;  // in the order OpenSim applies them
 };

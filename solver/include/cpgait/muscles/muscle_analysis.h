@@ -16,6 +16,10 @@ struct MuscleAnalysisOptions {
   std::vector<std::string> moment_arm_coordinates;
   // Every step_interval-th sample of the trajectory (OpenSim's step_interval; default 1).
   int step_interval = 1;
+  // Activation per trajectory sample and muscle (rows as the trajectory's; nullptr: none). Given, the
+  // fibre lengths reported are each muscle's isometric equilibrium at it (OpenSim's
+  // solve_for_equilibrium_for_auxiliary_states).
+  const Eigen::MatrixXd* activation = nullptr;
 };
 
 struct MuscleAnalysisSummary {
@@ -32,6 +36,7 @@ struct MuscleAnalysisResult {
   Eigen::MatrixXd length_m;               // frames x muscles
   Eigen::MatrixXd lengthening_speed_m_s;  // frames x muscles
   std::vector<Eigen::MatrixXd> moment_arm_m;  // per requested coordinate: frames x muscles (m, or m/m)
+  Eigen::MatrixXd fiber_length_m;             // frames x muscles, with an activation given; else empty
   MuscleAnalysisSummary summary;
 };
 

@@ -21,6 +21,10 @@ CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, 
 double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double path_length_m,
                                           double path_speed_m_s);
 
+// The fibre length at rest in isometric equilibrium at activation a: what OpenSim's
+// equilibrateMuscles sets (Schutte1993Muscle by its own iteration).
+double isometric_fiber_length(const Muscle& m, double activation, double path_length_m);
+
 // A compliant muscle's state after `duration_s` of constant excitation while its path length moves
 // linearly from L0 to L1: activation by RK4, fibre length by backward Euler (the fibre equation is
 // stiff at low activation: its rate constant reaches ~1e4 /s), 1 ms substeps. CMC's force predictor.
