@@ -9,7 +9,10 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/degroote_fregly2016.h"
 #include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/rigid_tendon_muscle.h"
 #include "cpgait/muscles/muscle_model.h"
 #include "test_support.h"
 
@@ -218,3 +221,74 @@ TEST(CoordinateLimitForce, SpringAndDampingPastEachLimit) {
 }
 
 }  // namespace
+
+// DeGrooteFregly2016Muscle's closed-form curves at their defining points (OpenSim's constants): the
+// active curve peaks near optimal length, the force-velocity curve is 1 at rest and its inverse
+// undoes it, passive and tendon forces reach 1 at their strains at one normalised force (and the
+// tendon's is zero at slack length).
+TEST(DeGrooteFregly2016, CurvesHaveTheirDefiningValues) {
+  degroote_fregly2016::Parameters p;
+  EXPECT_NEAR(degroote_fregly2016::active_force_length(p, 1.0), 1.0, 2e-3);
+  EXPECT_LT(degroote_fregly2016::active_force_length(p, 0.5), 0.3);
+  EXPECT_NEAR(degroote_fregly2016::force_velocity(0.0), 1.0, 1e-9);
+  EXPECT_NEAR(degroote_fregly2016::force_velocity(-1.0), 0.0, 0.02);
+  for (double v : {-0.9, -0.3, 0.0, 0.4, 0.9})
+    EXPECT_NEAR(degroote_fregly2016::force_velocity_inverse(degroote_fregly2016::force_velocity(v)), v, 1e-12);
+  EXPECT_NEAR(degroote_fregly2016::passive_force_length(p, 1.6), 1.0, 1e-12);
+  EXPECT_NEAR(degroote_fregly2016::passive_force_length(p, 0.2), 0.0, 1e-12);
+  EXPECT_NEAR(degroote_fregly2016::tendon_force_length(p, 1.0), 0.0, 1e-12);
+  EXPECT_NEAR(degroote_fregly2016::tendon_force_length(p, 1.049), 1.0, 1e-12);
+  p.ignore_passive_fiber_force = true;
+  EXPECT_EQ(degroote_fregly2016::passive_force_length(p, 1.5), 0.0);
+  p.active_force_width_scale = 2.0;  // twice as wide: the value at 1 + 2 d is the default's at 1 + d
+  degroote_fregly2016::Parameters q;
+  EXPECT_NEAR(degroote_fregly2016::active_force_length(p, 1.4), degroote_fregly2016::active_force_length(q, 1.2), 1e-12);
+}
+
+// A DeGroote muscle's compliant fibre is at rest at its equilibrium length, and its activation rises
+// with OpenSim's blend of the two time constants (faster than deactivation's, slower than activation's
+// alone at a = 0.5).
+TEST(DeGrooteFregly2016, EquilibriumAndActivation) {
+  Muscle m;
+  m.max_isometric_force_N = 800;
+  m.optimal_fiber_length_m = 0.1;
+  m.tendon_slack_length_m = 0.2;
+  m.pennation_angle_at_optimal_rad = 0.2;
+  m.sin_pennation_at_optimal = std::sin(0.2);
+  m.activation_time_constant_s = 0.015;
+  m.deactivation_time_constant_s = 0.060;
+  m.min_control = 0;
+  m.degroote = std::make_shared<const degroote_fregly2016::Parameters>();
+  const double L = 0.1 * std::cos(0.2) + 0.2 * 1.01;
+  for (double a : {0.1, 0.6}) {
+    const double lm = muscles::compliant_equilibrium_fiber_length(m, a, L, 0.0);
+    EXPECT_NEAR(muscles::compliant_tendon_fiber(m, a, L, lm).fiber_velocity_m_s, 0.0, 1e-6);
+    EXPECT_GT(muscles::compliant_tendon_fiber(m, a, L, lm * 1.02).fiber_velocity_m_s, -10.0);
+    EXPECT_LT(muscles::compliant_tendon_fiber(m, a, L, lm * 1.02).fiber_velocity_m_s, 0.0);
+  }
+  const double rate = thelen_activation_rate(m, 1.0, 0.5);  // z = 1.25, f = 0.5 tanh(0.05)
+  const double z = 1.25, f = 0.5 * std::tanh(0.05);
+  EXPECT_NEAR(rate, ((f + 0.5) / (0.015 * z) + (0.5 - f) * z / 0.060) * 0.5, 1e-12);
+}
+
+// RigidTendonMuscle: OpenSim's default curves, the fibre moving at the path's speed, and an
+// activation that follows the control at once.
+TEST(RigidTendonMuscle, ForcesFromItsCurves) {
+  const std::string path = refdata::shared_path("opensim/opensim-core-tests/CMC/block_hanging_RigidTendonMuscle.osim");
+  REQUIRE_REFERENCE(path);
+  const OsimReadResult r = read_osim(path);
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("not supported"), std::string::npos) << w;
+  ASSERT_EQ(r.model.muscles.size(), 1u);
+  const Muscle& mu = r.model.muscles[0];
+  ASSERT_TRUE(mu.rigid_tendon);
+  EXPECT_TRUE(muscles::has_rigid_tendon(mu));
+  const double L = mu.tendon_slack_length_m + mu.optimal_fiber_length_m * std::cos(mu.pennation_angle_at_optimal_rad);
+  const RigidTendonForces f = muscles::rigid_tendon_forces(mu, 0.7, L, 0.0);
+  const double cos_pen = std::cos(mu.pennation_angle_at_optimal_rad);
+  EXPECT_NEAR(f.active_N, 0.7 * mu.max_isometric_force_N * mu.rigid_tendon->active_force_length.value(1.0) * cos_pen, 1e-9);
+  EXPECT_NEAR(f.passive_N, 0.0, 1e-9);
+  // Shortening at a tenth of max speed: the force-velocity curve's value there (0.642857 at -0.1).
+  const double V = -0.1 * mu.optimal_fiber_length_m * mu.max_contraction_velocity;
+  EXPECT_NEAR(muscles::rigid_tendon_forces(mu, 0.7, L, V).active_N / f.active_N, 0.642857, 1e-6);
+  EXPECT_NEAR(thelen_activation_rate(mu, 0.8, 0.3), 0.5 / 1e-3, 1e-9);
+}

@@ -9,7 +9,7 @@
 #include "cpgait/dynamics/rnea.h"
 #include "cpgait/muscles/millard2012.h"
 #include "cpgait/muscles/muscle_path.h"
-#include "cpgait/muscles/thelen2003.h"
+#include "cpgait/muscles/muscle_model.h"
 
 namespace cpgait {
 
@@ -92,7 +92,7 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
       const Muscle& mu = model.muscles[m];
       f_opt[m] = !options.use_muscle_physiology ? mu.max_isometric_force_N
                  : mu.millard ? millard2012::inextensible_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
-                              : thelen2003::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m]);
+                              : muscles::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m]);
       A.col(m) = geometry.moment_arm_m.row(m).transpose() * f_opt[m];
     }
     actuators.generalized_forces(model, ws, S, A.rightCols(na));

@@ -83,7 +83,14 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       const Muscle& mu = model.muscles[m];
       const double a = x[sys.activation_index(m)];
       const double l = ws.geometry.length_m[m], v = ws.geometry.lengthening_speed_m_s[m];
-      if (sys.compliant_tendons) {
+      if (sys.compliant_tendons && muscles::has_rigid_tendon(mu)) {
+        // A muscle whose own tendon is rigid: its fibre state rides along the path.
+        const auto f = muscles::rigid_tendon_forces(mu, a, l, v);
+        ws.muscle_force_N[m] = f.active_N + f.passive_N;
+        const double dl = 1e-7;
+        ws.fiber_velocity_m_s[m] = (muscles::rigid_tendon_fiber_length(mu, l + v * dl) - muscles::rigid_tendon_fiber_length(mu, l)) / dl;
+        xdot[sys.fiber_length_index(m)] = ws.fiber_velocity_m_s[m];
+      } else if (sys.compliant_tendons) {
         const auto f = muscles::compliant_tendon_fiber(mu, a, l, x[sys.fiber_length_index(m)]);
         ws.muscle_force_N[m] = f.force_N;
         ws.fiber_velocity_m_s[m] = f.fiber_velocity_m_s;
@@ -145,7 +152,9 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
     const double L = ws.geometry.length_m[m], V = ws.geometry.lengthening_speed_m_s[m];
     const double da = 1e-6;
     jac.da_da[m] = (thelen_activation_rate(mu, excitation[m], a + da) - xdot[sys.activation_index(m)]) / da;
-    if (sys.compliant_tendons) {
+    if (sys.compliant_tendons && muscles::has_rigid_tendon(mu)) {
+      continue;  // no stiff fibre state; its force-velocity damping is left explicit
+    } else if (sys.compliant_tendons) {
       const double lm = x[sys.fiber_length_index(m)], dl = 1e-7 * mu.optimal_fiber_length_m;
       const auto f0 = muscles::compliant_tendon_fiber(mu, a, L, lm);
       const auto fl = muscles::compliant_tendon_fiber(mu, a, L, lm + dl);

@@ -8,7 +8,9 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/xml_document.h"
+#include "cpgait/muscles/degroote_fregly2016.h"
 #include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/rigid_tendon_muscle.h"
 #include "cpgait/muscles/schutte1993.h"
 
 namespace cpgait {
@@ -615,7 +617,8 @@ class Reader {
         continue;
       }
       const bool schutte = type == "Schutte1993Muscle" || type == "Schutte1993Muscle_Deprecated";
-      if (type != "Thelen2003Muscle" && type != "Millard2012EquilibriumMuscle" && !schutte) {
+      if (type != "Thelen2003Muscle" && type != "Millard2012EquilibriumMuscle" && !schutte && type != "RigidTendonMuscle" &&
+          type != "DeGrooteFregly2016Muscle") {
         warn(n, "force type not supported yet; ignored");
         continue;
       }
@@ -642,6 +645,14 @@ class Reader {
         mu.flen = d_.number(n, "Flen", 1.4);
       } else if (schutte) {
         read_schutte(n, mu);
+      } else if (type == "RigidTendonMuscle") {
+        rigid_tendon_muscle::Curves c = rigid_tendon_muscle::default_curves();
+        function_property(n, "active_force_length_curve", c.active_force_length);
+        function_property(n, "passive_force_length_curve", c.passive_force_length);
+        function_property(n, "force_velocity_curve", c.force_velocity);
+        mu.rigid_tendon = std::make_shared<const rigid_tendon_muscle::Curves>(std::move(c));
+      } else if (type == "DeGrooteFregly2016Muscle") {
+        read_degroote(n, mu);
       } else {
         read_millard(n, mu);
       }
@@ -652,22 +663,23 @@ class Reader {
     }
   }
 
+  // A property holding a function (its one element child) into f; false when the document has none.
+  bool function_property(const xml_node& n, const char* name, Function& f) {
+    for (const auto& e : n.child(name).children())
+      if (e.type() == pugi::node_element) {
+        f = read_function(e);
+        return true;
+      }
+    return false;
+  }
+
   // Schutte1993Muscle's curves, each a function inside its property (OpenSim's defaults where absent;
   // without a passive curve OpenSim uses its exponential).
   void read_schutte(const xml_node& n, Muscle& mu) {
     schutte1993::Curves c = schutte1993::default_curves();
-    auto curve = [&](const char* name, Function& f) {
-      const xml_node p = n.child(name);
-      for (const auto& e : p.children())
-        if (e.type() == pugi::node_element) {
-          f = read_function(e);
-          return true;
-        }
-      return false;
-    };
-    curve("tendon_force_length_curve", c.tendon_force_length);
-    curve("active_force_length_curve", c.active_force_length);
-    c.exponential_passive = !curve("passive_force_length_curve", c.passive_force_length);
+    function_property(n, "tendon_force_length_curve", c.tendon_force_length);
+    function_property(n, "active_force_length_curve", c.active_force_length);
+    c.exponential_passive = !function_property(n, "passive_force_length_curve", c.passive_force_length);
     c.damping = d_.number(n, "damping", c.damping);
     mu.schutte = std::make_shared<const schutte1993::Curves>(std::move(c));
     if (!warned_schutte_) {
@@ -677,6 +689,27 @@ class Reader {
     }
   }
   bool warned_schutte_ = false;
+
+  // DeGrooteFregly2016Muscle's properties, with OpenSim's defaults (its activation time constants
+  // differ from the other muscles': 0.015 and 0.060 s).
+  void read_degroote(const xml_node& n, Muscle& mu) {
+    degroote_fregly2016::Parameters p;
+    mu.activation_time_constant_s = d_.number(n, "activation_time_constant", 0.015);
+    mu.deactivation_time_constant_s = d_.number(n, "deactivation_time_constant", 0.060);
+    read_numbers(n, {{"active_force_width_scale", &p.active_force_width_scale},
+                     {"fiber_damping", &p.fiber_damping},
+                     {"passive_fiber_strain_at_one_norm_force", &p.passive_fiber_strain_at_one_norm_force},
+                     {"tendon_strain_at_one_norm_force", &p.tendon_strain_at_one_norm_force}});
+    p.ignore_passive_fiber_force = d_.boolean(n, "ignore_passive_fiber_force", false);
+    p.ignore_tendon_compliance = d_.boolean(n, "ignore_tendon_compliance", false);
+    if (p.active_force_width_scale < 1) d_.fail(n.child("active_force_width_scale"), "active_force_width_scale must be at least 1");
+    if (p.fiber_damping < 0) d_.fail(n.child("fiber_damping"), "fiber_damping must not be negative");
+    if (p.passive_fiber_strain_at_one_norm_force <= 0)
+      d_.fail(n.child("passive_fiber_strain_at_one_norm_force"), "passive_fiber_strain_at_one_norm_force must be positive");
+    if (p.tendon_strain_at_one_norm_force <= 0)
+      d_.fail(n.child("tendon_strain_at_one_norm_force"), "tendon_strain_at_one_norm_force must be positive");
+    mu.degroote = std::make_shared<const degroote_fregly2016::Parameters>(p);
+  }
 
   // Stiffness per degree and limits in degrees for rotational coordinates, converted to SI here.
   void read_coordinate_limit_force(const xml_node& n) {

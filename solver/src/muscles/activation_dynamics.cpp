@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cpgait/muscles/degroote_fregly2016.h"
 #include "cpgait/muscles/millard2012.h"
 
 namespace cpgait {
 
 double thelen_activation_rate(const Muscle& m, double u, double a) {
+  if (m.degroote) return degroote_fregly2016::activation_rate(m, u, a);
   u = std::clamp(u, m.min_control, m.max_control);
+  // A RigidTendonMuscle's activation is its control: the state follows it within a millisecond.
+  if (m.rigid_tendon) return (u - a) / 1e-3;
   // Millard's activation model is the same equation with the activation held to its range.
   if (m.millard) a = std::clamp(a, m.millard->parameters.minimum_activation, 1.0);
   const double tau = u > a ? m.activation_time_constant_s * (0.5 + 1.5 * a) : m.deactivation_time_constant_s / (0.5 + 1.5 * a);

@@ -23,6 +23,12 @@ struct Curves;  // cpgait/muscles/millard2012.h
 namespace schutte1993 {
 struct Curves;  // cpgait/muscles/schutte1993.h
 }
+namespace rigid_tendon_muscle {
+struct Curves;  // cpgait/muscles/rigid_tendon_muscle.h
+}
+namespace degroote_fregly2016 {
+struct Parameters;  // cpgait/muscles/degroote_fregly2016.h
+}
 
 // A rigid transform: x_parent = rotation * x_child + translation.
 struct Pose {
@@ -140,6 +146,9 @@ struct Muscle {
   // Schutte1993Muscle (OpenSim's deprecated Schutte1993Muscle_Deprecated): its curves (nullptr for
   // other muscle types).
   std::shared_ptr<const schutte1993::Curves> schutte;
+  // RigidTendonMuscle: its curves; DeGrooteFregly2016Muscle: its parameters (nullptr otherwise).
+  std::shared_ptr<const rigid_tendon_muscle::Curves> rigid_tendon;
+  std::shared_ptr<const degroote_fregly2016::Parameters> degroote;
   std::vector<PathPoint> path;
   std::vector<PathWrap> wraps;  // in the order OpenSim applies them
 };

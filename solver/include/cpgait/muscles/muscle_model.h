@@ -1,11 +1,16 @@
 #pragma once
-// A muscle's forces by its own model: OpenSim's Millard2012EquilibriumMuscle (millard2012.h) for the
-// muscles that are one, Thelen 2003 (thelen2003.h) for the others. The dynamics, CMC and the gait
-// call these; the models' own functions stay specific.
+// A muscle's forces by its own model: OpenSim's Millard2012EquilibriumMuscle (millard2012.h),
+// DeGrooteFregly2016Muscle, RigidTendonMuscle and Schutte1993Muscle (its equilibrium) for the muscles
+// that are one, Thelen 2003 (thelen2003.h) for the others. The dynamics, CMC and the gait call these;
+// the models' own functions stay specific.
 #include "cpgait/model/model.h"
 #include "cpgait/muscles/fiber_state.h"
 
 namespace cpgait::muscles {
+
+// Whether the muscle's own model has an inextensible tendon (RigidTendonMuscle, or
+// ignore_tendon_compliance): then it has no fibre state, even where the others' tendons are compliant.
+bool has_rigid_tendon(const Muscle& m);
 
 // Rigid tendon at path length L (m) and lengthening speed V (m/s).
 RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
