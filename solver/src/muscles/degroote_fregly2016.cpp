@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cpgait/muscles/fiber_equilibrium.h"
+
 namespace cpgait::degroote_fregly2016 {
 namespace {
 
@@ -106,15 +108,9 @@ double compliant_equilibrium_fiber_length(const Muscle& m, double a, double L, d
     const double fibre = a * active_force_length(p, lN) * force_velocity(vN) + passive_force_length(p, lN) + p.fiber_damping * vN;
     return tendon_force_length(p, (L - lm * cos_pen) / m.tendon_slack_length_m) - fibre * cos_pen;
   };
-  double lo = std::max(w * 1.0001, kMinNormFiberLength * m.optimal_fiber_length_m);
-  double hi = std::max(rigid_tendon_fiber_length(m, L), lo);
-  if (residual(lo) <= 0) return lo;
-  if (residual(hi) >= 0) return hi;
-  for (int i = 0; i < 60 && hi - lo > 1e-12; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (residual(mid) > 0 ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  const double lo = std::max(w * 1.0001, kMinNormFiberLength * m.optimal_fiber_length_m);
+  const double hi = std::max(rigid_tendon_fiber_length(m, L), lo);
+  return falling_root(residual, lo, hi, 1e-12);
 }
 
 }  // namespace cpgait::degroote_fregly2016

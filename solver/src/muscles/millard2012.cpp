@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "cpgait/muscles/fiber_equilibrium.h"
+
 namespace cpgait::millard2012 {
 namespace {
 
@@ -286,15 +288,9 @@ double compliant_equilibrium_fiber_length(const Muscle& m, double activation, do
                          c.parameters.fiber_damping * vN;
     return c.tendon_force_length.value((L - lm * cos_pen) / m.tendon_slack_length_m) - fibre * cos_pen;
   };
-  double lo = shortest_fiber(m, c, pen);
-  double hi = std::max(pen.fiber_length(L, m.tendon_slack_length_m), lo);
-  if (residual(lo) <= 0) return lo;
-  if (residual(hi) >= 0) return hi;
-  for (int i = 0; i < 60 && hi - lo > 1e-12; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (residual(mid) > 0 ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  const double lo = shortest_fiber(m, c, pen);
+  const double hi = std::max(pen.fiber_length(L, m.tendon_slack_length_m), lo);
+  return falling_root(residual, lo, hi, 1e-12);
 }
 
 double inextensible_tendon_active_force(const Muscle& m, double activation, double L, double V) {

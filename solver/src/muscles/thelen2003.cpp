@@ -1,9 +1,10 @@
 #include "cpgait/muscles/thelen2003.h"
 
-#include "cpgait/muscles/activation_dynamics.h"
-
 #include <algorithm>
 #include <cmath>
+
+#include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/fiber_equilibrium.h"
 
 namespace cpgait::thelen2003 {
 namespace {
@@ -165,15 +166,9 @@ double compliant_equilibrium_fiber_length(const Muscle& m, double activation, do
     const double tendon = m.max_isometric_force_N * tendon_force_strain(m, (L - lm * cos_pen) / m.tendon_slack_length_m);
     return tendon - active_fiber_force_along_tendon(m, activation, lm, V * cos_pen) - passive_fiber_force_along_tendon(m, lm);
   };
-  double lo = min_fiber_length(m);
-  double hi = std::max(rigid_tendon_fiber(m, L, 0.0).fiber_length_m, lo);
-  if (residual(lo) <= 0) return lo;
-  if (residual(hi) >= 0) return hi;
-  for (int i = 0; i < 60 && hi - lo > 1e-10; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (residual(mid) > 0 ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  const double lo = min_fiber_length(m);
+  const double hi = std::max(rigid_tendon_fiber(m, L, 0.0).fiber_length_m, lo);
+  return falling_root(residual, lo, hi, 1e-10);
 }
 
 }  // namespace cpgait::thelen2003
