@@ -1,6 +1,7 @@
 // Forward dynamics on one thread: evaluations of qdd = M^-1 (tau - bias) per second on gait2392.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <random>
 
@@ -96,6 +97,36 @@ static void BM_CmcSubject01(benchmark::State& state) {
   state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_CmcSubject01)->Unit(benchmark::kSecond)->Iterations(2);
+
+// CMC on gait10dof18musc's shipped setup (18 Millard2012EquilibriumMuscles with elastic tendons,
+// reserves appended to the model's actuators, 5 ms windows, 0.6-1.9 s), one thread: simulated
+// seconds per wall-clock second (OpenSim 4.1 here: 0.0075).
+static void BM_CmcGait10dof18muscMillard(benchmark::State& state) {
+  const std::string g = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait10dof18musc/OutputReference/";
+  if (!std::filesystem::exists(g + "gait10dof_Kinematics_Tracking_Tasks.xml")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait10dof18musc");
+    return;
+  }
+  const Model m = read_osim(g + "subject01.osim").model;
+  std::vector<ActuatorSpec> specs = read_actuators(g + "subject01.osim");
+  for (auto& a : read_actuators(g + "gait10dof_Reserve_Actuators.xml"))
+    if (std::none_of(specs.begin(), specs.end(), [&](const ActuatorSpec& b) { return b.name == a.name; })) specs.push_back(a);
+  const ResolvedActuators acts(m, specs);
+  const AppliedLoads loads(m, read_external_loads(g + "ExperimentalData/subject01_walk_grf.xml"),
+                           read_storage(g + "ExperimentalData/subject01_walk_grf.mot"));
+  const auto tasks = read_cmc_tasks(g + "gait10dof_Kinematics_Tracking_Tasks.xml");
+  const Storage kin = read_storage(g + "RRA/Results/subject_adjusted_Kinematics_q.sto");
+  ComputedMuscleControlOptions o;
+  o.time_range_s = std::make_pair(0.6, 1.9);
+  o.window_s = 0.005;
+  double simulated = 0;
+  for (auto _ : state) {
+    const auto r = computed_muscle_control(m, kin, &loads, nullptr, acts, tasks, nullptr, o);
+    simulated += r.summary.simulated_s;
+  }
+  state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CmcGait10dof18muscMillard)->Unit(benchmark::kSecond)->Iterations(2);
 
 // The reproduced gait on subject01, one thread: a CPG fitted to OpenSim 4.1's static-optimization
 // activations drives the muscles on contact spheres (fitted to the trial) for two gait cycles.

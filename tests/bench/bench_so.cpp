@@ -51,3 +51,27 @@ static void BM_SoArm26Wrapping(benchmark::State& state) {
   state.counters["frames/s"] = benchmark::Counter(frames, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_SoArm26Wrapping)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+
+// Millard2012EquilibriumMuscle on OpenSim's SO test with an ankle CoordinateLimitForce
+// (subject01_adjusted_spring: 18 Millard muscles, 10 actuators, GRF, every 10th row as the setup).
+static void BM_SoMillardAnkleSpring(benchmark::State& state) {
+  const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/opensim-core-tests/Analyze/";
+  if (!std::filesystem::exists(base + "subject01_adjusted_spring.osim")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/opensim-core-tests/Analyze");
+    return;
+  }
+  const Model model = read_osim(base + "subject01_adjusted_spring.osim").model;
+  const ResolvedActuators acts(model, read_actuators(base + "subject01_adjusted_spring.osim"));
+  const AppliedLoads loads(model, read_external_loads(base + "externalForces.xml"), read_storage(base + "subject01_walk1_grf.mot"));
+  const Storage coords = read_storage(base + "walk_subject01_Kinematics_q.sto");
+  StaticOptimizationOptions o;
+  o.time_range_s = std::make_pair(0.5, 1.3);
+  o.step_interval = 10;
+  int frames = 0;
+  for (auto _ : state) {
+    const StaticOptimizationResult r = static_optimization(model, coords, &loads, acts, o);
+    frames += r.summary.frames;
+  }
+  state.counters["frames/s"] = benchmark::Counter(frames, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_SoMillardAnkleSpring)->Unit(benchmark::kMillisecond)->MinTime(1.0);

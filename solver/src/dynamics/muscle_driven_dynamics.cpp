@@ -16,6 +16,7 @@ MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
       muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
       active_force_N(Eigen::VectorXd::Zero(sys.num_muscles())),
       actuator_force(sys.num_actuators()), free(free_coordinates(*sys.model)) {
+  for (const auto& mu : sys.model->muscles) rigid_tendon.push_back(muscles::has_rigid_tendon(mu));
   if (sys.contacts) {
     for (const auto& s : sys.contacts->spheres) sphere_coordinates.push_back(ancestor_coordinates(*sys.model, s.body));
     contact_force_N.assign(sys.contacts->spheres.size(), Eigen::Vector3d::Zero());
@@ -83,7 +84,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       const Muscle& mu = model.muscles[m];
       const double a = x[sys.activation_index(m)];
       const double l = ws.geometry.length_m[m], v = ws.geometry.lengthening_speed_m_s[m];
-      if (sys.compliant_tendons && muscles::has_rigid_tendon(mu)) {
+      if (sys.compliant_tendons && ws.rigid_tendon[m]) {
         // A muscle whose own tendon is rigid: its fibre state rides along the path.
         const auto f = muscles::rigid_tendon_forces(mu, a, l, v);
         ws.muscle_force_N[m] = f.active_N + f.passive_N;

@@ -37,6 +37,7 @@ double rigid_tendon_fiber_length(const Muscle& m, double L) {
 }
 
 CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double a, double L, double lm) {
+  if (!m.millard && !m.degroote && !m.rigid_tendon) return thelen2003::compliant_tendon_fiber(m, a, L, lm);  // most muscles
   if (has_rigid_tendon(m)) {  // no fibre state: the force at rest, the fibre held on the path
     const RigidTendonForces f = rigid_tendon_forces(m, a, L, 0.0);
     return {f.active_N + f.passive_N, 0.0, 1.0};

@@ -55,6 +55,7 @@ struct MuscleDrivenWorkspace {
   Eigen::VectorXd x_coupled, c;
   std::vector<int> free;
   Eigen::MatrixXd G, M_free;
+  std::vector<char> rigid_tendon;  // per muscle: its own model's tendon is inextensible
   // Outputs of the last evaluation.
   Eigen::VectorXd muscle_force_N;      // along the tendon
   Eigen::VectorXd fiber_velocity_m_s;  // compliant tendons: d(fibre length)/dt
