@@ -205,6 +205,9 @@ void run_cmc_setup(const std::string& setup_path, const ToolOverrides& o) {
   in.options.time_range_s = std::make_pair(s.initial_time_s, s.final_time_s);
   in.options.window_s = s.cmc_time_window_s;
   in.options.lowpass_cutoff_hz = s.lowpass_cutoff_hz;
+  // OpenSim applies no ground forces when the setup gives no external loads (a swinging leg, a
+  // hanging block); cpgait's contact spheres are for `cpgait cmc` without --loads.
+  in.no_contact = in.loads.empty();
   // The setup's integrator_error_tolerance is OpenSim's integrator's (another method and norm); the
   // default of ComputedMuscleControlOptions is used instead.
   if (!s.use_fast_target) std::fprintf(stderr, "warning: the slow optimization target is not implemented; using the fast target\n");

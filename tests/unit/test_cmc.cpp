@@ -208,6 +208,7 @@ TEST(MuscleDrivenDynamics, WithoutMusclesItIsForwardDynamics) {
   const Model& m = walker();
   Model bare = m;
   bare.muscles.clear();
+  for (auto& c : bare.coordinates) c.locked = false;  // plain forward dynamics knows no locks
   MuscleDrivenSystem sys;
   sys.model = &bare;
   MuscleDrivenWorkspace ws(sys);
@@ -226,7 +227,8 @@ TEST(MuscleDrivenDynamics, WithoutMusclesItIsForwardDynamics) {
 }
 
 TEST(MuscleDrivenDynamics, MuscleForceActsThroughItsMomentArms) {
-  const Model& m = walker();
+  Model m = walker();
+  for (auto& c : m.coordinates) c.locked = false;  // every coordinate free to take its moment
   MuscleDrivenSystem sys;
   sys.model = &m;
   sys.compliant_tendons = false;

@@ -97,7 +97,8 @@ TEST(StaticOptimization, CoordinateActuatorsAloneCarryTheInverseDynamics) {
   const Model& m = walker();
   const auto synth = fixtures::synthesize_trial(m, {});
   const Storage coords = make_storage("coordinates", coordinate_names(m), synth.markers.time_s, synth.q, false);
-  const Model bare = without_muscles(m);
+  Model bare = without_muscles(m);
+  for (auto& c : bare.coordinates) c.locked = false;  // ID knows no locks; SO, as OpenSim's, holds them
   const std::vector<ActuatorSpec> specs = reserves(m, 100);
   const ResolvedActuators acts(bare, specs);
   const StaticOptimizationResult r = static_optimization(bare, coords, nullptr, acts);
@@ -105,6 +106,15 @@ TEST(StaticOptimization, CoordinateActuatorsAloneCarryTheInverseDynamics) {
   ASSERT_EQ(r.controls.rows(), id.generalized_forces.rows());
   EXPECT_LT((r.forces - id.generalized_forces).cwiseAbs().maxCoeff(), 1e-7);
   EXPECT_LT((r.controls * 100 - id.generalized_forces).cwiseAbs().maxCoeff(), 1e-7);
+
+  // The walker's lumbar_rotation is locked: static optimization balances the other coordinates only
+  // (OpenSim's SO keeps no equation for a constrained coordinate), so its own actuator rests.
+  const Model locked = without_muscles(m);
+  const int lr = locked.coordinate_index("lumbar_rotation");
+  ASSERT_TRUE(locked.coordinates[lr].locked);
+  const StaticOptimizationResult rl = static_optimization(locked, coords, nullptr, ResolvedActuators(locked, specs));
+  EXPECT_LT(rl.forces.col(lr).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_EQ(rl.summary.frames_not_converged, 0);
 }
 
 // Two actuators on one coordinate share its load as the exponent prescribes: minimising

@@ -258,7 +258,9 @@ TEST(OsimReader, EveryReferenceModelLoads) {
       EXPECT_EQ(w.find("Millard2012EquilibriumMuscle"), std::string::npos) << w;
       // Read and computed now: no "not supported" for them (Schutte's one note says what it covers).
       for (const char* type : {"Schutte1993Muscle", "RigidTendonMuscle", "CoordinateLimitForce", "CoordinateCouplerConstraint"})
-        if (w.find(type) != std::string::npos) EXPECT_EQ(w.find("not supported"), std::string::npos) << w;
+        if (w.find(type) != std::string::npos) {
+          EXPECT_EQ(w.find("not supported"), std::string::npos) << w;
+        }
     }
   }
   std::printf("%d models read\n", models);

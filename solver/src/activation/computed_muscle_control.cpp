@@ -9,6 +9,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/dormand_prince.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
+#include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/muscles/activation_dynamics.h"
@@ -80,6 +81,11 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     const int c = model.coordinate_index(t.coordinate);
     if (c < 0) throw InputError(t.file, t.line, "coordinate", "model " + model.name + " has no coordinate " + t.coordinate);
     if (std::find(tracked.begin(), tracked.end(), c) != tracked.end()) continue;
+    if (model.coordinates[c].locked ||
+        std::any_of(model.couplers.begin(), model.couplers.end(), [&](const CoordinateCoupler& k) { return k.dependent == c; })) {
+      r.summary.warnings.push_back("task " + t.coordinate + ": the coordinate is locked or coupled; it is not tracked");
+      continue;
+    }
     tracked.push_back(c);
     kp[c] = t.kp;
     kv[c] = t.kv;
@@ -87,7 +93,14 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   }
   if (tracked.empty()) throw InputError(tasks.empty() ? desired.name : tasks.front().file, 0, "tasks", "no task is on");
   std::sort(tracked.begin(), tracked.end());
-  const bool all_tracked = static_cast<int>(tracked.size()) == nq;
+  // With couplers the accelerations live on the free coordinates: a = G a_free + c.
+  const bool coupled = has_coordinate_constraints(model);
+  const bool all_tracked = static_cast<int>(tracked.size()) == nq && !coupled;
+  std::vector<int> free_index(nq, -1);
+  {
+    const std::vector<int> free = free_coordinates(model);
+    for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
+  }
 
   // Control ranges: the constraints file's, within the muscle's own range.
   Eigen::VectorXd u_min(nx), u_max(nx);
@@ -152,6 +165,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   trajectories_at(traj, t_begin, qd_i, ud_i, ad_i);
   x.head(nq) = qd_i;
   x.segment(nq, nq) = ud_i;
+  if (coupled) assemble_coordinate_constraints(model, x.data(), x.data() + nq);
   for (int m = 0; m < nm; ++m) x[sys.activation_index(m)] = std::max(u_min[m], 0.02);
 
   Eigen::VectorXd excitation(nm), control_prev = Eigen::VectorXd::Zero(na), control_new(na), control_now(na);
@@ -236,15 +250,28 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         if (s.converged) ++r.summary.windows_residuals_unbounded;
       }
     } else {
-      Minv = fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
       const int nt = static_cast<int>(tracked.size());
       Eigen::MatrixXd At(nt, nx);
       Eigen::VectorXd bt(nt);
-      const Eigen::MatrixXd MA = Minv * A;
-      const Eigen::VectorXd Mb = Minv * bias;
-      for (int i = 0; i < nt; ++i) {
-        At.row(i) = MA.row(tracked[i]);
-        bt[i] = qdd_des[tracked[i]] + Mb[tracked[i]];
+      if (coupled) {
+        // Free accelerations: (G^T M G) a_free = G^T (A x - bias - M c), G and c at this state (the
+        // derivative evaluation above left them in the workspace).
+        const Eigen::MatrixXd Mr = ws.G.transpose() * fd.M * ws.G;
+        const Eigen::LLT<Eigen::MatrixXd> llt(Mr);
+        const Eigen::MatrixXd MA = llt.solve(ws.G.transpose() * A);
+        const Eigen::VectorXd Mb = llt.solve(ws.G.transpose() * (bias + fd.M * ws.c));
+        for (int i = 0; i < nt; ++i) {
+          At.row(i) = MA.row(free_index[tracked[i]]);
+          bt[i] = qdd_des[tracked[i]] + Mb[free_index[tracked[i]]];
+        }
+      } else {
+        Minv = fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
+        const Eigen::MatrixXd MA = Minv * A;
+        const Eigen::VectorXd Mb = Minv * bias;
+        for (int i = 0; i < nt; ++i) {
+          At.row(i) = MA.row(tracked[i]);
+          bt[i] = qdd_des[tracked[i]] + Mb[tracked[i]];
+        }
       }
       s = minimize_power_sum(At, bt, lo, hi, qp, lambda, sol);
     }
@@ -309,6 +336,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       trajectories_at(traj, t, qd_i, ud_i, ad_i);
       x.head(nq) = qd_i;
       x.segment(nq, nq) = ud_i;
+      if (coupled) assemble_coordinate_constraints(model, x.data(), x.data() + nq);
       set_equilibrium_fibers(t);
       reset_done = true;
     }
@@ -434,9 +462,16 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         for (int c : tracked) acc[c] = ka[c] * ab[c] + kv[c] * (ua[c] - x[nq + c]) + kp[c] * (qa[c] - x[c]);
         Eigen::VectorXd zero_controls = Eigen::VectorXd::Zero(na);
         muscle_driven_derivatives(sys, ta, x, excitation, zero_controls, ws, xdot);
-        const Eigen::VectorXd rhs = fd.M * acc + fd.bias - ws.tau;
         Eigen::VectorXd lam, c_act;
-        minimize_power_sum(ws.actuator_columns, rhs, u_min.tail(na), u_max.tail(na), qp, lam, c_act);
+        if (coupled) {
+          // The free rows only, with the coupled coordinates' accelerations following the others'.
+          apply_coupler_rates(model, ws.x_coupled.data(), Eigen::VectorXd(ws.x_coupled.segment(nq, nq)).data(), acc.data());
+          const Eigen::VectorXd rhs = ws.G.transpose() * (fd.M * acc + fd.bias - ws.tau);
+          minimize_power_sum(ws.G.transpose() * ws.actuator_columns, rhs, u_min.tail(na), u_max.tail(na), qp, lam, c_act);
+        } else {
+          const Eigen::VectorXd rhs = fd.M * acc + fd.bias - ws.tau;
+          minimize_power_sum(ws.actuator_columns, rhs, u_min.tail(na), u_max.tail(na), qp, lam, c_act);
+        }
         control_prev = c_act;
         control_new = c_act;
         for (int j = 0; j < na; ++j) control_now[j] = c_act[j];
@@ -450,6 +485,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       r.summary.integrator_rejected += ds.rejected_steps;
       r.summary.evaluations += ds.evaluations;
       if (!ds.success) throw std::runtime_error("CMC: the forward integration failed at " + std::to_string(ta) + " s: " + ds.message);
+      if (coupled) assemble_coordinate_constraints(model, x.data(), x.data() + nq);  // against drift, as OpenSim projects
       if (k + 1 < n_sub && reset_done && t_window >= t_out - 1e-9) {
         const double s = double(k + 1) / n_sub;
         for (int j = 0; j < na; ++j) control_now[j] = steps[nm + j] ? control_new[j] : control_prev[j] + s * (control_new[j] - control_prev[j]);

@@ -53,7 +53,7 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     hi[nm + i] = actuators.spec(i).max_control;
   }
 
-  const bool coupled = !model.couplers.empty();
+  const bool coupled = has_coordinate_constraints(model);
   const std::vector<int> free = free_coordinates(model);
   Eigen::MatrixXd G, A_free;
   Eigen::VectorXd tau_free;
@@ -75,8 +75,9 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     qd = k.qd.row(i).transpose();
     qdd = k.qdd.row(i).transpose();
     if (coupled) {
-      // The coupled coordinates where their constraints put them, as OpenSim assembles the state.
-      apply_coordinate_couplers(model, q.data());
+      // The state assembled on its constraints, as OpenSim's: locked coordinates held, coupled ones
+      // on their functions.
+      assemble_coordinate_constraints(model, q.data(), qd.data());
       apply_coupler_rates(model, q.data(), qd.data(), qdd.data());
     }
     forward_kinematics(model, q.data(), ws);

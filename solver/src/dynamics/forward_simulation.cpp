@@ -209,10 +209,7 @@ ForwardSimulationResult forward_simulation(const Model& model, const ResolvedAct
   ro.max_step_s = 0.01;
   std::vector<Eigen::VectorXd> rec_x, rec_fm, rec_fa, rec_c;
   auto record = [&](double t) {
-    if (!model.couplers.empty()) {  // back onto the constraint (OpenSim's projection), against drift
-      apply_coordinate_couplers(model, x.data());
-      apply_coupler_rates(model, x.data(), x.data() + nq);
-    }
+    if (ws.constrained) assemble_coordinate_constraints(model, x.data(), x.data() + nq);  // against drift, as OpenSim projects
     f(t, x, xdot);
     r.time_s.push_back(t);
     rec_x.push_back(x);

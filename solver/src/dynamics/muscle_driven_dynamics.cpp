@@ -15,8 +15,10 @@ MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
       external(sys.model->bodies.size(), Vector6d::Zero()), tau(sys.num_coordinates()),
       muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
       active_force_N(Eigen::VectorXd::Zero(sys.num_muscles())),
-      actuator_force(sys.num_actuators()), free(free_coordinates(*sys.model)) {
+      actuator_force(sys.num_actuators()) {
+  free = free_coordinates(*sys.model);
   for (const auto& mu : sys.model->muscles) rigid_tendon.push_back(muscles::has_rigid_tendon(mu));
+  constrained = has_coordinate_constraints(*sys.model);
   if (sys.contacts) {
     for (const auto& s : sys.contacts->spheres) sphere_coordinates.push_back(ancestor_coordinates(*sys.model, s.body));
     contact_force_N.assign(sys.contacts->spheres.size(), Eigen::Vector3d::Zero());
@@ -36,12 +38,11 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
                                MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot) {
   const Model& model = *sys.model;
   const int nq = sys.num_coordinates(), nm = sys.num_muscles(), na = sys.num_actuators();
-  const bool coupled = !model.couplers.empty();
+  const bool coupled = ws.constrained;
   if (coupled) {
-    // The coupled coordinates and speeds follow the independent ones, whatever the state holds.
+    // Locked coordinates held, coupled ones following their independent ones, whatever the state holds.
     ws.x_coupled = x;
-    apply_coordinate_couplers(model, ws.x_coupled.data());
-    apply_coupler_rates(model, ws.x_coupled.data(), ws.x_coupled.data() + nq);
+    assemble_coordinate_constraints(model, ws.x_coupled.data(), ws.x_coupled.data() + nq);
   }
   const double* q = coupled ? ws.x_coupled.data() : x.data();
   const double* u = q + nq;

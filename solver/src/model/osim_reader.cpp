@@ -492,8 +492,8 @@ class Reader {
       for (const auto& other : m_.couplers)
         if (other.dependent == c.dependent || other.dependent == c.independent || other.independent == c.dependent)
           d_.fail(n, "coupler chains and coordinates coupled twice are not supported");
-      warn(n, "IK, static optimization and forward dynamics keep the coupled coordinate on its function (ID, as "
-              "OpenSim's, ignores constraints); CMC's force solve does not project onto the free coordinates yet");
+      warn(n, "IK, static optimization, CMC and forward dynamics keep the coupled coordinate on its function (ID, "
+              "as OpenSim's, ignores constraints)");
       m_.couplers.push_back(std::move(c));
     }
   }

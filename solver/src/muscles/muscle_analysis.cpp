@@ -46,9 +46,8 @@ MuscleAnalysisResult muscle_analysis(const Model& model, const CoordinateTraject
   MusclePathGeometry g(model);
   for (std::size_t k = 0; k < rows.size(); ++k) {
     Eigen::VectorXd q = kinematics.q.row(rows[k]).transpose(), qd = kinematics.qd.row(rows[k]).transpose();
-    // Coupled coordinates where their constraints put them, as OpenSim's AnalyzeTool assembles each state.
-    apply_coordinate_couplers(model, q.data());
-    apply_coupler_rates(model, q.data(), qd.data());
+    // The state on its constraints, as OpenSim's AnalyzeTool assembles each one.
+    assemble_coordinate_constraints(model, q.data(), qd.data());
     forward_kinematics(model, q.data(), ws);
     motion_subspace(model, q.data(), ws, S);
     muscle_path_geometry(model, q.data(), qd.data(), ws, S, g);

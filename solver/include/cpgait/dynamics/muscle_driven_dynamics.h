@@ -51,7 +51,8 @@ struct MuscleDrivenWorkspace {
   std::vector<AppliedLoads::Sample> load_samples;
   std::vector<std::vector<int>> sphere_coordinates;  // coordinates moving each sphere's body
   Eigen::VectorXd tau;
-  // Coupler constraints: the state with its coupled coordinates set, and the projection's parts.
+  // Coupler constraints and locked coordinates: the state assembled on them, and the projection's parts.
+  bool constrained = false;
   Eigen::VectorXd x_coupled, c;
   std::vector<int> free;
   Eigen::MatrixXd G, M_free;
