@@ -133,10 +133,12 @@ Storage parse_storage(std::string_view content, const std::string& name,
     }
     ++rows;
   }
-  if (n_rows >= 0 && static_cast<long long>(rows + repeated) < n_rows)
-    throw fail(L.size() - 1, "nRows",
-               "file ends after " + std::to_string(rows) + " rows but the header says " + std::to_string(n_rows) +
-                   " (truncated file?)");
+  // As OpenSim, the rows present are the table; the header's count is only a hint (the TRC reader
+  // does the same with NumFrames).
+  if (n_rows >= 0 && static_cast<long long>(rows + repeated) != n_rows)
+    table.warnings.push_back(name + ": the header says nRows=" + std::to_string(n_rows) + " but the file has " +
+                             std::to_string(rows + repeated) + " rows; the rows are used");
+  if (rows == 0) throw fail(L.size() - 1, "nRows", "the file has no data rows");
   table.data = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
       values.data(), static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(cols));
   return table;

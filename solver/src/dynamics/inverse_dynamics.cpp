@@ -46,6 +46,7 @@ void trajectories_at(const CoordinateTrajectories& k, double t, Eigen::VectorXd&
 CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage& coords,
                                                const InverseDynamicsOptions& options) {
   CoordinateTrajectories out;
+  out.warnings = coords.warnings;
   const int n = coords.num_rows(), nq = model.num_coordinates();
   if (n < 4) throw InputError(coords.name, 0, "nRows", "a coordinates file needs at least 4 rows to differentiate");
   bool degrees = options.assume_degrees_when_unspecified;

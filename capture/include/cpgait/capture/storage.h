@@ -19,6 +19,8 @@ struct Storage {
   std::optional<bool> in_degrees;
   // Header lines we do not interpret, kept in order so a round trip preserves them.
   std::vector<std::string> extra_header;
+  // What the reader accepted but the user should know (e.g. fewer rows than the header's nRows).
+  std::vector<std::string> warnings;
 
   int num_rows() const { return static_cast<int>(data.rows()); }
   int num_columns() const { return static_cast<int>(data.cols()); }
