@@ -8,6 +8,7 @@
 #include "cpgait/capture/xml_document.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/scaling/model_scale_factors.h"
+#include "cpgait/scaling/scale_model.h"
 #include "test_support.h"
 
 namespace cpgait {
@@ -52,6 +53,71 @@ TEST(ScaleGait2392, MeasurementScaleFactorsMatchOpenSim41) {
   std::printf("%d bodies' scale factors, largest relative difference from OpenSim 4.1's %.1e (it prints 6 digits)\n", compared,
               worst);
   EXPECT_EQ(compared, static_cast<int>(model.bodies.size()));
+}
+
+}  // namespace
+}  // namespace cpgait
+
+namespace cpgait {
+namespace {
+
+// The generic gait2392 scaled with those factors and the subject's 72.6 kg against the model OpenSim
+// 4.1 wrote before placing markers (subject01_scaledOnly.osim): the tolerances.
+TEST(ScaleGait2392, ScaledModelMatchesOpenSim41) {
+  const std::string pipeline = refdata::shared_path("opensim/gait2392/pipeline/");
+  const std::string generic = refdata::shared_path("opensim/gait2392/model/gait2392_simbody.osim");
+  const std::string theirs_path = refdata::shared_path("opensim41-here/Scale/subject01_scaledOnly.osim");
+  for (const auto& f : {pipeline + "subject01_Setup_Scale.xml", pipeline + "subject01_static.trc", generic, theirs_path})
+    REQUIRE_REFERENCE(f);
+  const ScaleSetup setup = read_scale_setup(pipeline + "subject01_Setup_Scale.xml");
+  OsimReadOptions o;
+  o.marker_set_file = pipeline + setup.marker_set_file;
+  const Model model = read_osim(generic, o).model;
+  const MarkerTrial trial = read_trc(pipeline + setup.marker_file);
+  const ModelScaleFactors f = model_scale_factors(model, setup, &trial);
+  const Model ours = scale_model(model, f.body, setup.preserve_mass_distribution, setup.mass_kg);
+  const Model theirs = read_osim(theirs_path).model;
+  EXPECT_NEAR(ours.total_mass_kg(), 72.6, 1e-9);
+
+  double mass = 0, com = 0, inertia = 0, joint = 0, marker = 0, point = 0;
+  for (const auto& b : theirs.bodies) {
+    const int i = ours.body_index(b.name);
+    ASSERT_GE(i, 0) << b.name;
+    mass = std::max(mass, std::abs(ours.bodies[i].mass_kg - b.mass_kg));
+    com = std::max(com, (ours.bodies[i].com_m - b.com_m).norm());
+    if (b.inertia_kg_m2.norm() > 0)
+      inertia = std::max(inertia, (ours.bodies[i].inertia_kg_m2 - b.inertia_kg_m2).norm() / b.inertia_kg_m2.norm());
+  }
+  for (const auto& j : theirs.joints) {
+    const int i = ours.joint_index(j.name);
+    ASSERT_GE(i, 0) << j.name;
+    joint = std::max({joint, (ours.joints[i].parent_offset.translation_m - j.parent_offset.translation_m).norm(),
+                      (ours.joints[i].child_offset.translation_m - j.child_offset.translation_m).norm()});
+    // The knee's coupled translations: the functions' values over the knee's range.
+    for (int k = 3; k < 6; ++k)
+      for (double q = -2.0; q <= 0.1; q += 0.1)
+        joint = std::max(joint, std::abs(ours.joints[i].axes[k].function.value(q) - j.axes[k].function.value(q)));
+  }
+  for (const auto& mk : theirs.markers) {
+    const int i = ours.marker_index(mk.name);
+    if (i < 0) continue;
+    marker = std::max(marker, (ours.markers[i].location_m - mk.location_m).norm());
+  }
+  for (const auto& mu : theirs.muscles) {
+    const int i = ours.muscle_index(mu.name);
+    ASSERT_GE(i, 0) << mu.name;
+    ASSERT_EQ(ours.muscles[i].path.size(), mu.path.size()) << mu.name;
+    for (std::size_t p = 0; p < mu.path.size(); ++p)
+      point = std::max(point, (ours.muscles[i].path[p].location_m - mu.path[p].location_m).norm());
+  }
+  std::printf("scaled gait2392 vs OpenSim 4.1: masses %.1e kg, centres of mass %.1e m, inertias %.1e (relative), "
+              "joint offsets %.1e m, markers %.1e m, path points %.1e m\n", mass, com, inertia, joint, marker, point);
+  EXPECT_LT(mass, 0.01);
+  EXPECT_LT(com, 5e-4);
+  EXPECT_LT(inertia, 5e-3);
+  EXPECT_LT(joint, 5e-4);
+  EXPECT_LT(marker, 1e-3);
+  EXPECT_LT(point, 5e-4);
 }
 
 }  // namespace
