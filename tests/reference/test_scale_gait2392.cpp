@@ -103,15 +103,21 @@ TEST(ScaleGait2392, ScaledModelMatchesOpenSim41) {
     if (i < 0) continue;
     marker = std::max(marker, (ours.markers[i].location_m - mk.location_m).norm());
   }
+  double muscle_length = 0;  // relative, optimal fibre and tendon slack lengths
   for (const auto& mu : theirs.muscles) {
     const int i = ours.muscle_index(mu.name);
     ASSERT_GE(i, 0) << mu.name;
+    muscle_length = std::max({muscle_length,
+                              std::abs(ours.muscles[i].optimal_fiber_length_m / mu.optimal_fiber_length_m - 1),
+                              std::abs(ours.muscles[i].tendon_slack_length_m / mu.tendon_slack_length_m - 1)});
     ASSERT_EQ(ours.muscles[i].path.size(), mu.path.size()) << mu.name;
     for (std::size_t p = 0; p < mu.path.size(); ++p)
       point = std::max(point, (ours.muscles[i].path[p].location_m - mu.path[p].location_m).norm());
   }
   std::printf("scaled gait2392 vs OpenSim 4.1: masses %.1e kg, centres of mass %.1e m, inertias %.1e (relative), "
-              "joint offsets %.1e m, markers %.1e m, path points %.1e m\n", mass, com, inertia, joint, marker, point);
+              "joint offsets %.1e m, markers %.1e m, path points %.1e m, muscle lengths %.1e (relative)\n", mass, com, inertia,
+              joint, marker, point, muscle_length);
+  EXPECT_LT(muscle_length, 1e-6);
   EXPECT_LT(mass, 0.01);
   EXPECT_LT(com, 5e-4);
   EXPECT_LT(inertia, 5e-3);
