@@ -146,4 +146,8 @@ std::string ik_tasks_json(const IkTaskSet& tasks) {
   return j.dump();
 }
 
+IkTaskSet read_ik_task_set(const xml::Document& d, const pugi::xml_node& set, const std::string& base_dir) {
+  return task_set_from(d, set, base_dir);
+}
+
 }  // namespace cpgait

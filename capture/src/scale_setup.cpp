@@ -30,6 +30,15 @@ ScaleSetup read_scale_setup(const std::string& path) {
   const pugi::xml_node maker = tool.child("GenericModelMaker");
   s.model_file = d.text(maker, "model_file");
   s.marker_set_file = d.text(maker, "marker_set_file");
+  if (const pugi::xml_node placer = tool.child("MarkerPlacer")) {
+    s.placer_apply = d.boolean(placer, "apply", true);
+    s.placer_tasks = read_ik_task_set(d, placer.child("IKTaskSet"), s.setup_dir);
+    s.placer_marker_file = d.text(placer, "marker_file");
+    s.placer_time_range_s = d.time_range(placer);
+    s.placer_output_model_file = d.text(placer, "output_model_file");
+    s.placer_output_motion_file = d.text(placer, "output_motion_file");
+    s.placer_output_marker_file = d.text(placer, "output_marker_file");
+  }
   const pugi::xml_node scaler = tool.child("ModelScaler");
   if (!scaler) {
     s.scaler_apply = false;

@@ -7,6 +7,13 @@
 #include <string>
 #include <vector>
 
+namespace pugi {
+class xml_node;
+}
+namespace cpgait::xml {
+class Document;
+}
+
 namespace cpgait {
 
 struct IkMarkerTask {
@@ -48,6 +55,10 @@ struct IkSetup {
 };
 
 IkSetup read_ik_setup(const std::string& path);
+
+// An <IKTaskSet> element inside another setup (the ScaleTool's MarkerPlacer), or the file its
+// `file` attribute names relative to base_dir.
+IkTaskSet read_ik_task_set(const xml::Document& d, const pugi::xml_node& set, const std::string& base_dir);
 // An IKTaskSet XML (root <IKTaskSet> or inside <OpenSimDocument>) or a .json task file.
 IkTaskSet read_ik_tasks(const std::string& path);
 IkTaskSet parse_ik_tasks_json(const std::string& content, const std::string& name);

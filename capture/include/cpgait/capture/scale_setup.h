@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "cpgait/capture/ik_setup.h"
+
 namespace cpgait {
 
 struct ScaleMeasurement {
@@ -38,6 +40,12 @@ struct ScaleSetup {
   std::optional<std::pair<double, double>> time_range_s;
   bool preserve_mass_distribution = false;
   std::string output_model_file, output_scale_file;
+  // MarkerPlacer
+  bool placer_apply = false;
+  IkTaskSet placer_tasks;
+  std::string placer_marker_file;
+  std::optional<std::pair<double, double>> placer_time_range_s;
+  std::string placer_output_model_file, placer_output_motion_file, placer_output_marker_file;
 };
 
 // Throws InputError naming the file, line and field for anything malformed.
