@@ -19,22 +19,41 @@
 namespace cpgait {
 namespace {
 
+// The setup, the generic model with the setup's marker set, and the static trial, as the tool loads
+// them; empty (with the test skipped) when ../shared lacks a file.
+struct Subject01Scale {
+  std::string pipeline = refdata::shared_path("opensim/gait2392/pipeline/");
+  std::string generic = refdata::shared_path("opensim/gait2392/model/gait2392_simbody.osim");
+  ScaleSetup setup;
+  Model model;
+  MarkerTrial trial;
+  std::string missing;  // the first file ../shared lacks
+  bool load(std::initializer_list<std::string> also_needed) {
+    for (const auto& f : {pipeline + "subject01_Setup_Scale.xml", pipeline + "gait2392_Scale_MarkerSet.xml",
+                          pipeline + "subject01_static.trc", generic})
+      if (!std::filesystem::exists(f)) return missing = f, false;
+    for (const auto& f : also_needed)
+      if (!std::filesystem::exists(f)) return missing = f, false;
+    setup = read_scale_setup(pipeline + "subject01_Setup_Scale.xml");
+    OsimReadOptions o;
+    o.marker_set_file = pipeline + setup.marker_set_file;
+    model = read_osim(generic, o).model;
+    trial = read_trc(pipeline + setup.marker_file);
+    return true;
+  }
+};
+
 TEST(ScaleGait2392, MeasurementScaleFactorsMatchOpenSim41) {
-  const std::string pipeline = refdata::shared_path("opensim/gait2392/pipeline/");
-  const std::string generic = refdata::shared_path("opensim/gait2392/model/gait2392_simbody.osim");
   const std::string applied = refdata::shared_path("opensim41-here/Scale/subject01_scaleSet_applied.xml");
-  for (const auto& f : {pipeline + "subject01_Setup_Scale.xml", pipeline + "gait2392_Scale_MarkerSet.xml",
-                        pipeline + "subject01_static.trc", generic, applied})
-    REQUIRE_REFERENCE(f);
-  const ScaleSetup setup = read_scale_setup(pipeline + "subject01_Setup_Scale.xml");
+  Subject01Scale s;
+  if (!s.load({applied})) GTEST_SKIP() << "reference data absent: " << s.missing;
+  const ScaleSetup& setup = s.setup;
+  const Model& model = s.model;
+  const MarkerTrial& trial = s.trial;
   EXPECT_EQ(setup.model_file, "gait2392_simbody.osim");
   EXPECT_DOUBLE_EQ(setup.mass_kg, 72.6);
   ASSERT_EQ(setup.scaling_order.size(), 2u);
   EXPECT_TRUE(setup.preserve_mass_distribution);
-  OsimReadOptions o;
-  o.marker_set_file = pipeline + setup.marker_set_file;
-  const Model model = read_osim(generic, o).model;
-  const MarkerTrial trial = read_trc(pipeline + setup.marker_file);
   const ModelScaleFactors f = model_scale_factors(model, setup, &trial);
   // The setup scales the patellae, which gait2392_simbody does not have (OpenSim ignores them too).
   for (const auto& w : f.warnings) EXPECT_NE(w.find("patella"), std::string::npos) << w;
@@ -60,25 +79,15 @@ TEST(ScaleGait2392, MeasurementScaleFactorsMatchOpenSim41) {
   EXPECT_EQ(compared, static_cast<int>(model.bodies.size()));
 }
 
-}  // namespace
-}  // namespace cpgait
-
-namespace cpgait {
-namespace {
-
 // The generic gait2392 scaled with those factors and the subject's 72.6 kg against the model OpenSim
 // 4.1 wrote before placing markers (subject01_scaledOnly.osim): the tolerances.
 TEST(ScaleGait2392, ScaledModelMatchesOpenSim41) {
-  const std::string pipeline = refdata::shared_path("opensim/gait2392/pipeline/");
-  const std::string generic = refdata::shared_path("opensim/gait2392/model/gait2392_simbody.osim");
   const std::string theirs_path = refdata::shared_path("opensim41-here/Scale/subject01_scaledOnly.osim");
-  for (const auto& f : {pipeline + "subject01_Setup_Scale.xml", pipeline + "subject01_static.trc", generic, theirs_path})
-    REQUIRE_REFERENCE(f);
-  const ScaleSetup setup = read_scale_setup(pipeline + "subject01_Setup_Scale.xml");
-  OsimReadOptions o;
-  o.marker_set_file = pipeline + setup.marker_set_file;
-  const Model model = read_osim(generic, o).model;
-  const MarkerTrial trial = read_trc(pipeline + setup.marker_file);
+  Subject01Scale s;
+  if (!s.load({theirs_path})) GTEST_SKIP() << "reference data absent: " << s.missing;
+  const ScaleSetup& setup = s.setup;
+  const Model& model = s.model;
+  const MarkerTrial& trial = s.trial;
   const ModelScaleFactors f = model_scale_factors(model, setup, &trial);
   const Model ours = scale_model(model, f.body, setup.preserve_mass_distribution, setup.mass_kg);
   const Model theirs = read_osim(theirs_path).model;
@@ -131,28 +140,19 @@ TEST(ScaleGait2392, ScaledModelMatchesOpenSim41) {
   EXPECT_LT(point, 5e-4);
 }
 
-}  // namespace
-}  // namespace cpgait
-
-namespace cpgait {
-namespace {
-
 // The MarkerPlacer on the scaled model: the static pose and the placed markers against OpenSim 4.1's
 // (subject01_simbody.osim and subject01_static_output.mot in opensim41-here/Scale).
 TEST(ScaleGait2392, PlacedMarkersMatchOpenSim41) {
-  const std::string pipeline = refdata::shared_path("opensim/gait2392/pipeline/");
-  const std::string generic = refdata::shared_path("opensim/gait2392/model/gait2392_simbody.osim");
   const std::string placed_path = refdata::shared_path("opensim41-here/Scale/subject01_simbody.osim");
   const std::string pose_path = refdata::shared_path("opensim41-here/Scale/subject01_static_output.mot");
-  for (const auto& f : {pipeline + "subject01_Setup_Scale.xml", pipeline + "subject01_static.trc", generic, placed_path, pose_path})
-    REQUIRE_REFERENCE(f);
-  const ScaleSetup setup = read_scale_setup(pipeline + "subject01_Setup_Scale.xml");
+  Subject01Scale s;
+  if (!s.load({placed_path, pose_path})) GTEST_SKIP() << "reference data absent: " << s.missing;
+  const std::string& pipeline = s.pipeline;
+  const ScaleSetup& setup = s.setup;
+  const Model& model = s.model;
+  const MarkerTrial& trial = s.trial;
   ASSERT_TRUE(setup.placer_apply);
   EXPECT_FALSE(setup.placer_tasks.markers.empty());
-  OsimReadOptions o;
-  o.marker_set_file = pipeline + setup.marker_set_file;
-  const Model model = read_osim(generic, o).model;
-  const MarkerTrial trial = read_trc(pipeline + setup.marker_file);
   const Model scaled = scale_model(model, model_scale_factors(model, setup, &trial).body, setup.preserve_mass_distribution,
                                    setup.mass_kg);
   const MarkerTrial placer_trial = read_trc(pipeline + setup.placer_marker_file);
