@@ -77,8 +77,7 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     if (coupled) {
       // The state assembled on its constraints, as OpenSim's: locked coordinates held, coupled ones
       // on their functions.
-      assemble_coordinate_constraints(model, q.data(), qd.data());
-      apply_coupler_rates(model, q.data(), qd.data(), qdd.data());
+      assemble_coordinate_constraints(model, q.data(), qd.data(), qdd.data());
     }
     forward_kinematics(model, q.data(), ws);
     motion_subspace(model, q.data(), ws, S);

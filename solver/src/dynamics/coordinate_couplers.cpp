@@ -18,11 +18,11 @@ std::vector<int> free_coordinates(const Model& model) {
   return free;
 }
 
-void assemble_coordinate_constraints(const Model& model, double* q, double* qd) {
+void assemble_coordinate_constraints(const Model& model, double* q, double* qd, double* qdd) {
   for (int i = 0; i < model.num_coordinates(); ++i)
     if (model.coordinates[i].locked) q[i] = model.coordinates[i].default_value;
   apply_coordinate_couplers(model, q);
-  apply_coupler_rates(model, q, qd);
+  apply_coupler_rates(model, q, qd, qdd);
 }
 
 void apply_coupler_rates(const Model& model, const double* q, double* qd, double* qdd) {

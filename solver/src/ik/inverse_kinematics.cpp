@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
 
@@ -213,11 +214,9 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
   if (frames.empty()) throw InputError(trial.name, 0, "time_range", "no frame of the trial lies in the requested time range");
 
   const int nq = model.num_coordinates();
-  std::vector<int> free;
+  const std::vector<int> free = free_coordinates(model);
   std::vector<int> coupled(nq, -1);  // per coordinate: its independent one when a coupler sets it
   for (const auto& cc : model.couplers) coupled[cc.dependent] = cc.independent;
-  for (int c = 0; c < nq; ++c)
-    if (!model.coordinates[c].locked && coupled[c] < 0) free.push_back(c);
   Eigen::VectorXd q = model.default_coordinates();
   apply_coordinate_couplers(model, q.data());
   IkCost* cost = new IkCost(model, targets, free, q);

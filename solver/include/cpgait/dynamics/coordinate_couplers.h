@@ -18,8 +18,8 @@ bool has_coordinate_constraints(const Model& model);
 std::vector<int> free_coordinates(const Model& model);
 
 // Puts a state on its constraints: locked coordinates at their default values and at rest, coupled
-// ones (and their speeds) on their functions.
-void assemble_coordinate_constraints(const Model& model, double* q, double* qd);
+// ones (and their speeds, and accelerations where qdd is given) on their functions.
+void assemble_coordinate_constraints(const Model& model, double* q, double* qd, double* qdd = nullptr);
 
 // Dependent speeds from the independent ones (qd_dep = scale f'(q_ind) qd_ind), and where qdd is
 // given the dependent accelerations too (scale (f''(q_ind) qd_ind^2 + f'(q_ind) qdd_ind)); locked
