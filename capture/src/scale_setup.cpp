@@ -27,6 +27,8 @@ ScaleSetup read_scale_setup(const std::string& path) {
   s.file = path;
   s.setup_dir = std::filesystem::absolute(path).parent_path().string();
   s.mass_kg = d.number(tool, "mass", -1.0);
+  // OpenSim's -1 means "not given" (masses then scale with the bodies' volumes).
+  if (s.mass_kg != -1.0 && !(s.mass_kg > 0)) d.fail(tool.child("mass"), "the subject's mass must be positive (kg), or -1 for none");
   const pugi::xml_node maker = tool.child("GenericModelMaker");
   s.model_file = d.text(maker, "model_file");
   s.marker_set_file = d.text(maker, "marker_set_file");

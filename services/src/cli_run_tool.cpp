@@ -10,7 +10,7 @@ void add_run_tool_command(CLI::App& app) {
   auto* rt = app.add_subcommand("run-tool",
                                 "Run an OpenSim tool setup file as OpenSim would: files resolved relative to the setup,\n"
                                 "results where the setup says (or in --results).\n"
-                                "Supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool (StaticOptimization, InverseDynamics, MuscleAnalysis), CMCTool, ForwardTool.");
+                                "Supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool (StaticOptimization, InverseDynamics, MuscleAnalysis), CMCTool, ForwardTool, ScaleTool.");
   struct Args {
     std::string setup;
     ToolOverrides o;
@@ -34,8 +34,9 @@ void add_run_tool_command(CLI::App& app) {
     if (tool == "AnalyzeTool") return run_analyze_setup(a->setup, a->o);
     if (tool == "CMCTool") return run_cmc_setup(a->setup, a->o);
     if (tool == "ForwardTool") return run_forward_setup(a->setup, a->o);
+    if (tool == "ScaleTool") return run_scale_setup(a->setup, a->o);
     throw InputError(a->setup, d.line_of(root), tool,
-                     "this tool is not supported yet (supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool with StaticOptimization, InverseDynamics or MuscleAnalysis, CMCTool, ForwardTool)");
+                     "this tool is not supported yet (supported: InverseKinematicsTool, InverseDynamicsTool, AnalyzeTool with StaticOptimization, InverseDynamics or MuscleAnalysis, CMCTool, ForwardTool, ScaleTool)");
   });
 }
 

@@ -14,6 +14,7 @@ void add_run_command(CLI::App& app);        // run: the whole pipeline on one tr
 void add_serve_command(CLI::App& app);      // serve: the REST service
 void add_video_commands(CLI::App& app);     // detect, calibrate, register-tags, capture: AprilTag footage
 void add_cpg_commands(CLI::App& app);       // cpg fit, cpg run
+void add_scale_command(CLI::App& app);      // scale: OpenSim's ScaleTool setups
 
 struct ToolOverrides;  // setup_files.h
 
@@ -26,5 +27,6 @@ void run_analyze_setup(const std::string& setup_path, const ToolOverrides& o);  
 void run_so_setup(const std::string& setup_path, const ToolOverrides& o);       // AnalyzeTool + StaticOptimization
 void run_cmc_setup(const std::string& setup_path, const ToolOverrides& o);      // CMCTool
 void run_forward_setup(const std::string& setup_path, const ToolOverrides& o);  // ForwardTool
+void run_scale_setup(const std::string& setup_path, const ToolOverrides& o);    // ScaleTool
 
 }  // namespace cpgait::services

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   cpgait::services::add_activation_commands(app);
   cpgait::services::add_model_commands(app);
   cpgait::services::add_run_tool_command(app);
+  cpgait::services::add_scale_command(app);
   cpgait::services::add_run_command(app);
   cpgait::services::add_serve_command(app);
   cpgait::services::add_video_commands(app);

@@ -6,9 +6,12 @@
 #include <cmath>
 #include <filesystem>
 
+#include "cpgait/capture/ik_setup.h"
 #include "cpgait/capture/scale_setup.h"
+#include "cpgait/capture/storage.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/capture/xml_document.h"
+#include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/scaling/model_scale_factors.h"
@@ -42,6 +45,56 @@ struct Subject01Scale {
     return true;
   }
 };
+
+// The acceptance 1 between a scaled model and OpenSim's: masses within 0.01 kg, centres of
+// mass, joint offsets (and the knee's coupled translations) and path points within 0.5 mm, inertias
+// within 0.5 %, markers within 1 mm, muscle lengths within 1e-6 (relative).
+void expect_scaled_like(const Model& ours, const Model& theirs, const char* what) {
+  double mass = 0, com = 0, inertia = 0, joint = 0, marker = 0, point = 0;
+  for (const auto& b : theirs.bodies) {
+    const int i = ours.body_index(b.name);
+    ASSERT_GE(i, 0) << b.name;
+    mass = std::max(mass, std::abs(ours.bodies[i].mass_kg - b.mass_kg));
+    com = std::max(com, (ours.bodies[i].com_m - b.com_m).norm());
+    if (b.inertia_kg_m2.norm() > 0)
+      inertia = std::max(inertia, (ours.bodies[i].inertia_kg_m2 - b.inertia_kg_m2).norm() / b.inertia_kg_m2.norm());
+  }
+  for (const auto& j : theirs.joints) {
+    const int i = ours.joint_index(j.name);
+    ASSERT_GE(i, 0) << j.name;
+    joint = std::max({joint, (ours.joints[i].parent_offset.translation_m - j.parent_offset.translation_m).norm(),
+                      (ours.joints[i].child_offset.translation_m - j.child_offset.translation_m).norm()});
+    // The knee's coupled translations: the functions' values over the knee's range.
+    for (int k = 3; k < 6; ++k)
+      for (double q = -2.0; q <= 0.1; q += 0.1)
+        joint = std::max(joint, std::abs(ours.joints[i].axes[k].function.value(q) - j.axes[k].function.value(q)));
+  }
+  for (const auto& mk : theirs.markers) {
+    const int i = ours.marker_index(mk.name);
+    if (i < 0) continue;
+    marker = std::max(marker, (ours.markers[i].location_m - mk.location_m).norm());
+  }
+  double muscle_length = 0;  // relative, optimal fibre and tendon slack lengths
+  for (const auto& mu : theirs.muscles) {
+    const int i = ours.muscle_index(mu.name);
+    ASSERT_GE(i, 0) << mu.name;
+    muscle_length = std::max({muscle_length,
+                              std::abs(ours.muscles[i].optimal_fiber_length_m / mu.optimal_fiber_length_m - 1),
+                              std::abs(ours.muscles[i].tendon_slack_length_m / mu.tendon_slack_length_m - 1)});
+    ASSERT_EQ(ours.muscles[i].path.size(), mu.path.size()) << mu.name;
+    for (std::size_t p = 0; p < mu.path.size(); ++p)
+      point = std::max(point, (ours.muscles[i].path[p].location_m - mu.path[p].location_m).norm());
+  }
+  std::printf("%s: masses %.1e kg, centres of mass %.1e m, inertias %.1e (relative), joint offsets %.1e m, markers %.1e m, "
+              "path points %.1e m, muscle lengths %.1e (relative)\n", what, mass, com, inertia, joint, marker, point, muscle_length);
+  EXPECT_LT(muscle_length, 1e-6);
+  EXPECT_LT(mass, 0.01);
+  EXPECT_LT(com, 5e-4);
+  EXPECT_LT(inertia, 5e-3);
+  EXPECT_LT(joint, 5e-4);
+  EXPECT_LT(marker, 1e-3);
+  EXPECT_LT(point, 5e-4);
+}
 
 TEST(ScaleGait2392, MeasurementScaleFactorsMatchOpenSim41) {
   const std::string applied = refdata::shared_path("opensim41-here/Scale/subject01_scaleSet_applied.xml");
@@ -93,51 +146,7 @@ TEST(ScaleGait2392, ScaledModelMatchesOpenSim41) {
   const Model theirs = read_osim(theirs_path).model;
   EXPECT_NEAR(ours.total_mass_kg(), 72.6, 1e-9);
 
-  double mass = 0, com = 0, inertia = 0, joint = 0, marker = 0, point = 0;
-  for (const auto& b : theirs.bodies) {
-    const int i = ours.body_index(b.name);
-    ASSERT_GE(i, 0) << b.name;
-    mass = std::max(mass, std::abs(ours.bodies[i].mass_kg - b.mass_kg));
-    com = std::max(com, (ours.bodies[i].com_m - b.com_m).norm());
-    if (b.inertia_kg_m2.norm() > 0)
-      inertia = std::max(inertia, (ours.bodies[i].inertia_kg_m2 - b.inertia_kg_m2).norm() / b.inertia_kg_m2.norm());
-  }
-  for (const auto& j : theirs.joints) {
-    const int i = ours.joint_index(j.name);
-    ASSERT_GE(i, 0) << j.name;
-    joint = std::max({joint, (ours.joints[i].parent_offset.translation_m - j.parent_offset.translation_m).norm(),
-                      (ours.joints[i].child_offset.translation_m - j.child_offset.translation_m).norm()});
-    // The knee's coupled translations: the functions' values over the knee's range.
-    for (int k = 3; k < 6; ++k)
-      for (double q = -2.0; q <= 0.1; q += 0.1)
-        joint = std::max(joint, std::abs(ours.joints[i].axes[k].function.value(q) - j.axes[k].function.value(q)));
-  }
-  for (const auto& mk : theirs.markers) {
-    const int i = ours.marker_index(mk.name);
-    if (i < 0) continue;
-    marker = std::max(marker, (ours.markers[i].location_m - mk.location_m).norm());
-  }
-  double muscle_length = 0;  // relative, optimal fibre and tendon slack lengths
-  for (const auto& mu : theirs.muscles) {
-    const int i = ours.muscle_index(mu.name);
-    ASSERT_GE(i, 0) << mu.name;
-    muscle_length = std::max({muscle_length,
-                              std::abs(ours.muscles[i].optimal_fiber_length_m / mu.optimal_fiber_length_m - 1),
-                              std::abs(ours.muscles[i].tendon_slack_length_m / mu.tendon_slack_length_m - 1)});
-    ASSERT_EQ(ours.muscles[i].path.size(), mu.path.size()) << mu.name;
-    for (std::size_t p = 0; p < mu.path.size(); ++p)
-      point = std::max(point, (ours.muscles[i].path[p].location_m - mu.path[p].location_m).norm());
-  }
-  std::printf("scaled gait2392 vs OpenSim 4.1: masses %.1e kg, centres of mass %.1e m, inertias %.1e (relative), "
-              "joint offsets %.1e m, markers %.1e m, path points %.1e m, muscle lengths %.1e (relative)\n", mass, com, inertia,
-              joint, marker, point, muscle_length);
-  EXPECT_LT(muscle_length, 1e-6);
-  EXPECT_LT(mass, 0.01);
-  EXPECT_LT(com, 5e-4);
-  EXPECT_LT(inertia, 5e-3);
-  EXPECT_LT(joint, 5e-4);
-  EXPECT_LT(marker, 1e-3);
-  EXPECT_LT(point, 5e-4);
+  expect_scaled_like(ours, theirs, "scaled gait2392 vs OpenSim 4.1");
 }
 
 // The MarkerPlacer on the scaled model: the static pose and the placed markers against OpenSim 4.1's
@@ -247,6 +256,93 @@ TEST(ScaleGait2392, PlacedMarkersMatchOpenSim41) {
   // The 1 mm against OpenSim 4.1 holds off the torso; the torso's markers follow the lumbar
   // bending OpenSim 4.1 stopped short of (above).
   EXPECT_LT(worst_below_lumbar, 1e-3);
+}
+
+// `cpgait run-tool` on the setup (with the generic model, which the setup names beside itself):
+// the files OpenSim's ScaleTool writes, read back, against OpenSim 4.1's; the placed model's markers
+// against the shipped model's; the scale set and static pose against the in-memory tool's.
+TEST(ScaleGait2392, RunToolWritesWhatOpenSimsScaleToolWrites) {
+  const std::string theirs_scaled = refdata::shared_path("opensim41-here/Scale/subject01_scaledOnly.osim");
+  const std::string shipped = refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim");
+  Subject01Scale s;
+  if (!s.load({theirs_scaled, shipped})) GTEST_SKIP() << "reference data absent: " << s.missing;
+  const std::string out = refdata::temp_dir("scale_tool");
+  const auto run = refdata::run_cpgait("run-tool " + s.pipeline + "subject01_Setup_Scale.xml --model " + s.generic + " --results " + out);
+  ASSERT_EQ(run.status, 0) << run.output;
+  const Model scaled = read_osim(out + "/subject01_scaledOnly.osim").model;
+  EXPECT_EQ(scaled.name, "subject01");
+  expect_scaled_like(scaled, read_osim(theirs_scaled).model, "written scaled model vs OpenSim 4.1's");
+
+  // The placed model: the same bodies, markers where the shipped model has them.
+  const Model placed = read_osim(out + "/subject01_simbody.osim").model;
+  const Model ship = read_osim(shipped).model;
+  double worst = 0;
+  int compared = 0;
+  for (const auto& mk : ship.markers) {
+    const int i = placed.marker_index(mk.name);
+    ASSERT_GE(i, 0) << mk.name;
+    EXPECT_EQ(placed.bodies[placed.markers[i].body].name, ship.bodies[mk.body].name) << mk.name;
+    worst = std::max(worst, (placed.markers[i].location_m - mk.location_m).norm());
+    ++compared;
+  }
+  std::printf("written placed model: %d markers, worst %.1e m from the shipped subject01_simbody.osim\n", compared, worst);
+  EXPECT_EQ(compared, static_cast<int>(placed.markers.size()));
+  EXPECT_LT(worst, 1e-6);
+
+  // The scale set: each body's factors as the tool computed them.
+  const ModelScaleFactors f = model_scale_factors(s.model, s.setup, &s.trial);
+  const auto d = xml::Document::load_file(out + "/subject01_scaleSet_applied.xml");
+  int bodies = 0;
+  for (const auto& sc : d.doc().document_element().child("ScaleSet").child("objects").children("Scale")) {
+    const int b = s.model.body_index(d.text(sc, "segment"));
+    ASSERT_GE(b, 0);
+    const auto v = d.numbers(sc, "scales");
+    ASSERT_EQ(v.size(), 3u);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(v[k], f.body[b][k]);
+    ++bodies;
+  }
+  EXPECT_EQ(bodies, static_cast<int>(s.model.bodies.size()));
+
+  // The static pose: one row at the range's start, as OpenSim's, every coordinate in degrees or m.
+  const Storage pose = read_storage(out + "/subject01_static_output.mot");
+  ASSERT_EQ(pose.num_rows(), 1);
+  EXPECT_DOUBLE_EQ(pose.time()[0], s.setup.placer_time_range_s->first);
+  const MarkerPlacement p = place_markers(scale_model(s.model, f.body, s.setup.preserve_mass_distribution, s.setup.mass_kg),
+                                          s.trial, s.setup.placer_tasks, s.setup.placer_time_range_s);
+  for (int c = 0; c < s.model.num_coordinates(); ++c) {
+    const double unit = s.model.coordinates[c].is_angle() ? 180 / M_PI : 1.0;
+    EXPECT_NEAR(pose.data(0, refdata::required_column(pose, s.model.coordinates[c].name)), p.static_pose[c] * unit, 1e-9);
+  }
+  std::filesystem::remove_all(out);
+}
+
+// Acceptance 2: IK of the walking trial on our scaled and placed model against IK on OpenSim 4.1's
+// (the same IK, so the difference is the models'): per-frame marker RMS within 0.5 mm.
+TEST(ScaleGait2392, WalkingIkOnOurModelMatchesIkOnOpenSims) {
+  const std::string theirs_path = refdata::shared_path("opensim41-here/Scale/subject01_simbody.osim");
+  Subject01Scale s;
+  if (!s.load({theirs_path, s.pipeline + "subject01_walk1.trc", s.pipeline + "subject01_Setup_IK.xml"}))
+    GTEST_SKIP() << "reference data absent: " << s.missing;
+  const ModelScaleFactors f = model_scale_factors(s.model, s.setup, &s.trial);
+  const Model scaled = scale_model(s.model, f.body, s.setup.preserve_mass_distribution, s.setup.mass_kg);
+  const Model ours = place_markers(scaled, s.trial, s.setup.placer_tasks, s.setup.placer_time_range_s).model;
+  const Model theirs = read_osim(theirs_path).model;
+  const MarkerTrial walk = read_trc(s.pipeline + "subject01_walk1.trc");
+  const IkSetup ik = read_ik_setup(s.pipeline + "subject01_Setup_IK.xml");
+  IkOptions o;
+  o.time_range_s = ik.time_range_s;
+  const IkResult a = inverse_kinematics(ours, walk, ik.tasks, o), b = inverse_kinematics(theirs, walk, ik.tasks, o);
+  ASSERT_EQ(a.marker_rms_m.size(), b.marker_rms_m.size());
+  double worst = 0, mean_a = 0, mean_b = 0;
+  for (Eigen::Index i = 0; i < a.marker_rms_m.size(); ++i) {
+    worst = std::max(worst, std::abs(a.marker_rms_m[i] - b.marker_rms_m[i]));
+    mean_a += a.marker_rms_m[i] / static_cast<double>(a.marker_rms_m.size());
+    mean_b += b.marker_rms_m[i] / static_cast<double>(b.marker_rms_m.size());
+  }
+  std::printf("walk1 IK, %zu frames: mean marker RMS %.2f mm on ours, %.2f mm on OpenSim 4.1's; per frame within %.3f mm\n",
+              a.marker_rms_m.size(), 1e3 * mean_a, 1e3 * mean_b, 1e3 * worst);
+  EXPECT_GT(a.marker_rms_m.size(), 100u);
+  EXPECT_LT(worst, 5e-4);
 }
 
 }  // namespace

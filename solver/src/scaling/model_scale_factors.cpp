@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/kinematics/forward_kinematics.h"
@@ -61,12 +62,18 @@ ModelScaleFactors model_scale_factors(const Model& model, const ScaleSetup& setu
         trial_length /= (last - first + 1);
         sum += trial_length / model_length;
       }
-      if (!missing.empty() || meas.marker_pairs.empty() || !std::isfinite(sum)) {
-        r.warnings.push_back("measurement '" + meas.name + "' not used: " +
-                             (missing.empty() ? std::string("no finite marker distances") : missing));
-        continue;
-      }
+      // OpenSim only prints a warning and leaves the bodies unscaled, which users rarely notice.
+      if (!missing.empty()) throw InputError(where, meas.line, "Measurement '" + meas.name + "'", missing);
+      if (meas.marker_pairs.empty() || !std::isfinite(sum))
+        throw InputError(where, meas.line, "Measurement '" + meas.name + "'",
+                         meas.marker_pairs.empty() ? "no marker pairs" : "the markers' distances are not finite over the time range");
       const double factor = sum / static_cast<double>(meas.marker_pairs.size());
+      if (!(factor >= kMinScaleFactor && factor <= kMaxScaleFactor)) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "scale factor %.4g is outside %.1f-%.1f: check the static trial's units and marker names",
+                      factor, kMinScaleFactor, kMaxScaleFactor);
+        throw InputError(where, meas.line, "Measurement '" + meas.name + "'", buf);
+      }
       r.measured.emplace_back(meas.name, factor);
       for (const auto& [body, axes] : meas.body_axes) {
         const int b = body_of(body);
@@ -77,6 +84,17 @@ ModelScaleFactors model_scale_factors(const Model& model, const ScaleSetup& setu
     }
   }
   return r;
+}
+
+std::string scale_set_document(const Model& model, const std::vector<Eigen::Vector3d>& factors) {
+  std::string out = "<?xml version=\"1.0\" encoding=\"UTF-8\" ?>\n<OpenSimDocument Version=\"40000\">\n\t<ScaleSet name=\"ScaleSet\">\n\t\t<objects>\n";
+  char buf[128];
+  for (std::size_t b = 0; b < model.bodies.size() && b < factors.size(); ++b) {
+    std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g", factors[b][0], factors[b][1], factors[b][2]);
+    out += "\t\t\t<Scale>\n\t\t\t\t<scales>" + std::string(buf) + "</scales>\n\t\t\t\t<segment>" + model.bodies[b].name +
+           "</segment>\n\t\t\t\t<apply>true</apply>\n\t\t\t</Scale>\n";
+  }
+  return out + "\t\t</objects>\n\t\t<groups />\n\t</ScaleSet>\n</OpenSimDocument>\n";
 }
 
 }  // namespace cpgait

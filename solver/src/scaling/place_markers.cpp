@@ -18,7 +18,7 @@ MarkerPlacement place_markers(const Model& model, const MarkerTrial& trial, cons
   MarkerTrial avg;
   avg.name = trial.name;
   avg.marker_names = trial.marker_names;
-  avg.time_s = {0.5 * (t0 + t1)};
+  avg.time_s = {t0};  // OpenSim's averaged frame takes the range's start time
   avg.frame_numbers = {1};
   avg.data_rate_hz = avg.camera_rate_hz = trial.data_rate_hz;
   avg.positions_m.setConstant(3, nm, std::numeric_limits<double>::quiet_NaN());

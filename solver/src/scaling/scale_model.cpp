@@ -41,6 +41,29 @@ void scale_inertia(Body& b, const Eigen::Vector3d& s, bool scale_mass) {
   b.inertia_kg_m2 = I;
 }
 
+// WrapObject::extendScale and its shapes': the shape's axes (columns of its rotation) stretched by the
+// body's factors give its own: a cylinder's radius by the mean of x and y, its length by z; a sphere's
+// radius by the mean factor; an ellipsoid's radii each by its axis's.
+void scale_wrap_object(WrapObject& w, const Eigen::Vector3d& s) {
+  w.pose.translation_m = w.pose.translation_m.cwiseProduct(s);
+  Eigen::Vector3d axis;
+  for (int k = 0; k < 3; ++k) axis[k] = w.pose.rotation.col(k).cwiseProduct(s).norm();
+  switch (w.shape) {
+    case WrapObject::Shape::kCylinder:
+      w.radius_m *= 0.5 * (axis[0] + axis[1]);
+      w.length_m *= axis[2];
+      break;
+    case WrapObject::Shape::kSphere:
+      w.radius_m *= s.sum() / 3.0;
+      break;
+    case WrapObject::Shape::kEllipsoid:
+      w.dimensions_m = w.dimensions_m.cwiseProduct(axis);
+      break;
+    case WrapObject::Shape::kTorus:  // not computed (the reader warns); its radii are not read
+      break;
+  }
+}
+
 }  // namespace
 
 Model scale_model(const Model& generic, const std::vector<Eigen::Vector3d>& factors, bool preserve_mass_distribution,
@@ -65,7 +88,7 @@ Model scale_model(const Model& generic, const std::vector<Eigen::Vector3d>& fact
       if (p.kind == PathPoint::Kind::kMoving)
         for (int k = 0; k < 3; ++k) p.moving_functions[k] = p.moving_functions[k].scaled(f(p.body)[k]);
     }
-  for (auto& w : m.wrap_objects) w.pose.translation_m = w.pose.translation_m.cwiseProduct(f(w.body));
+  for (auto& w : m.wrap_objects) scale_wrap_object(w, f(w.body));
   for (std::size_t b = 1; b < m.bodies.size(); ++b) scale_inertia(m.bodies[b], f(static_cast<int>(b)), !preserve_mass_distribution);
   if (subject_mass_kg > 0) {
     const double total = m.total_mass_kg();

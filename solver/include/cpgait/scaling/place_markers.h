@@ -17,7 +17,7 @@ namespace cpgait {
 struct MarkerPlacement {
   Model model;                     // the markers placed
   Eigen::VectorXd static_pose;     // the coordinates IK found (rad or m)
-  double time_s = 0;               // the averaged frame's time (the range's middle)
+  double time_s = 0;               // the averaged frame's time: the range's start, as OpenSim's
   int markers_moved = 0;
   double marker_rms_before_m = 0;  // at the static pose, before the markers were moved
   std::vector<std::string> warnings;  // markers left where they were (absent or gap-filled only)

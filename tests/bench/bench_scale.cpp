@@ -1,0 +1,42 @@
+// Scaling throughput on one thread (counter "models/s"): OpenSim's Scale tool on gait2392 subject01
+// from its setup - scale factors from the static trial, the scaled model, markers placed by IK on the
+// static trial - and the written .osim.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+
+#include "cpgait/capture/scale_setup.h"
+#include "cpgait/capture/trc.h"
+#include "cpgait/model/osim_reader.h"
+#include "cpgait/model/osim_writer.h"
+#include "cpgait/scaling/model_scale_factors.h"
+#include "cpgait/scaling/place_markers.h"
+#include "cpgait/scaling/scale_model.h"
+
+using namespace cpgait;
+
+static void BM_ScaleToolGait2392Subject01(benchmark::State& state) {
+  const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/";
+  if (!std::filesystem::exists(base + "pipeline/subject01_Setup_Scale.xml")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
+    return;
+  }
+  const ScaleSetup setup = read_scale_setup(base + "pipeline/subject01_Setup_Scale.xml");
+  OsimReadOptions o;
+  o.marker_set_file = base + "pipeline/" + setup.marker_set_file;
+  const Model generic = read_osim(base + "model/gait2392_simbody.osim", o).model;
+  const MarkerTrial trial = read_trc(base + "pipeline/" + setup.marker_file);
+  const bool write = state.range(0) != 0;
+  int models = 0;
+  for (auto _ : state) {
+    const ModelScaleFactors f = model_scale_factors(generic, setup, &trial);
+    const Model scaled = scale_model(generic, f.body, setup.preserve_mass_distribution, setup.mass_kg);
+    const MarkerPlacement p = place_markers(scaled, trial, setup.placer_tasks, setup.placer_time_range_s);
+    if (write) benchmark::DoNotOptimize(osim_document(p.model).size());
+    benchmark::DoNotOptimize(p.static_pose.data());
+    ++models;
+  }
+  state.counters["models/s"] = benchmark::Counter(models, benchmark::Counter::kIsRate);
+}
+// Arg 0: scale and place; 1: also write the .osim (which reads the generic document again).
+BENCHMARK(BM_ScaleToolGait2392Subject01)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(2.0);

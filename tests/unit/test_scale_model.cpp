@@ -1,0 +1,42 @@
+// scale_model's rules that the gait2392 reference (tests/reference/test_scale_gait2392.cpp) does not
+// reach: wrap objects, whose dimensions OpenSim scales along the shape's own axes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cpgait/scaling/scale_model.h"
+
+using namespace cpgait;
+
+TEST(ScaleModel, WrapObjectsScaleAlongTheirOwnAxes) {
+  Model m;
+  m.bodies.resize(2);  // ground and one body; names do not matter here
+  auto add = [&](WrapObject::Shape shape, const Eigen::Matrix3d& rotation) {
+    WrapObject w;
+    w.shape = shape;
+    w.body = 1;
+    w.pose.rotation = rotation;
+    w.pose.translation_m = Eigen::Vector3d(0.1, 0.2, 0.3);
+    w.radius_m = 0.05;
+    w.length_m = 0.2;
+    w.dimensions_m = Eigen::Vector3d(0.01, 0.02, 0.03);
+    m.wrap_objects.push_back(w);
+  };
+  // A cylinder turned 90 deg about x: its y axis is the body's z, its axis (z) the body's -y.
+  const Eigen::Matrix3d turned = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  add(WrapObject::Shape::kCylinder, turned);
+  add(WrapObject::Shape::kSphere, turned);
+  add(WrapObject::Shape::kEllipsoid, Eigen::Matrix3d::Identity());
+  add(WrapObject::Shape::kEllipsoid, turned);
+  const std::vector<Eigen::Vector3d> f{Eigen::Vector3d::Ones(), Eigen::Vector3d(1.1, 1.2, 1.3)};
+  const Model s = scale_model(m, f, false, -1);
+  for (const auto& w : s.wrap_objects) EXPECT_TRUE(w.pose.translation_m.isApprox(Eigen::Vector3d(0.11, 0.24, 0.39), 1e-15));
+  // Cylinder: radius by the mean of its x and y axes' factors (1.1, 1.3), length by its z's (1.2).
+  EXPECT_NEAR(s.wrap_objects[0].radius_m, 0.05 * 1.2, 1e-15);
+  EXPECT_NEAR(s.wrap_objects[0].length_m, 0.2 * 1.2, 1e-15);
+  // Sphere: by the mean factor, whatever its orientation.
+  EXPECT_NEAR(s.wrap_objects[1].radius_m, 0.05 * 1.2, 1e-15);
+  // Ellipsoid: each radius by its axis's factor.
+  EXPECT_TRUE(s.wrap_objects[2].dimensions_m.isApprox(Eigen::Vector3d(0.011, 0.024, 0.039), 1e-15));
+  EXPECT_TRUE(s.wrap_objects[3].dimensions_m.isApprox(Eigen::Vector3d(0.011, 0.026, 0.036), 1e-15));
+}
