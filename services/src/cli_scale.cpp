@@ -9,6 +9,7 @@
 #include "cpgait/capture/scale_setup.h"
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/model/osim_writer.h"
+#include "cpgait/scaling/fit_scale_factors.h"
 #include "cpgait/scaling/model_scale_factors.h"
 #include "cpgait/scaling/place_markers.h"
 #include "cpgait/scaling/scale_model.h"
@@ -90,21 +91,91 @@ void run_scale_setup(const std::string& setup_path, const ToolOverrides& o) {
   }
 }
 
+// Automatic scaling: the generic model's markers fitted to the static trial (and motion trials).
+struct AutoScaleArgs {
+  std::string model, marker_set, static_trial, tasks, results = ".", name;
+  std::vector<std::string> motion;
+  std::vector<double> time;
+  double mass_kg = -1;
+  bool per_axis = false, no_symmetry = false;
+};
+
+void run_automatic_scaling(const AutoScaleArgs& a) {
+  if (a.model.empty() || a.static_trial.empty())
+    throw InputError("", 0, a.model.empty() ? "--model" : "--static", "automatic scaling needs the generic model (--model) and a static trial (--static)");
+  if (a.mass_kg != -1 && !(a.mass_kg > 0)) throw InputError("", 0, "--mass", "the subject's mass must be positive (kg)");
+  OsimReadOptions ro;
+  ro.marker_set_file = a.marker_set;
+  const OsimReadResult generic = read_osim(a.model, ro);
+  print_warnings(generic.warnings);
+  const MarkerTrial trial = read_marker_file(a.static_trial);
+  print_warnings(trial.warnings);
+  std::vector<MarkerTrial> motion;
+  for (const auto& m : a.motion) motion.push_back(read_marker_file(m));
+  std::vector<const MarkerTrial*> motion_ptrs;
+  for (const auto& m : motion) motion_ptrs.push_back(&m);
+  const IkTaskSet tasks = a.tasks.empty() ? IkTaskSet{} : read_ik_tasks(a.tasks);
+  ScaleFitOptions o;
+  o.per_axis = a.per_axis;
+  o.symmetric = !a.no_symmetry;
+  o.subject_mass_kg = a.mass_kg;
+  if (a.time.size() == 2) o.static_time_range_s = std::make_pair(a.time[0], a.time[1]);
+  const ScaleFit fit = fit_scale_factors(generic.model, trial, tasks, motion_ptrs, o);
+  print_warnings(fit.summary.warnings);
+  std::printf("%s\n", fit.summary.BriefReport().c_str());
+  for (std::size_t b = 1; b < fit.factors.size(); ++b)
+    std::printf("  %-16s %.4f %.4f %.4f\n", generic.model.bodies[b].name.c_str(), fit.factors[b][0], fit.factors[b][1], fit.factors[b][2]);
+  const std::string name = a.name.empty() ? fs::path(a.static_trial).stem().string() : a.name;
+  const std::string model_path = output_path(a.results, name + "_scaled.osim");
+  write_text_atomic(model_path, osim_document(fit.model, {name, ""}));
+  std::printf("wrote %s (%.3f kg)\n", model_path.c_str(), fit.model.total_mass_kg());
+  const std::string scale_path = output_path(a.results, name + "_scaleSet_applied.xml");
+  write_text_atomic(scale_path, scale_set_document(fit.model, fit.factors));
+  std::printf("wrote %s\n", scale_path.c_str());
+  MarkerPlacement pose;
+  pose.static_pose = fit.static_pose;
+  pose.time_s = o.static_time_range_s ? o.static_time_range_s->first : trial.time_s.front();
+  write_static_pose(fit.model, pose, output_path(a.results, name + "_static_output.mot"));
+}
+
 void add_scale_command(CLI::App& app) {
   auto* sc = app.add_subcommand("scale",
                                 "Scale a generic model to a subject as OpenSim's Scale tool does, from its setup (ScaleTool .xml):\n"
                                 "measurement and manual scale factors, masses to the subject's, muscles' fibre and tendon lengths,\n"
                                 "then markers placed on the static trial. Writes the setup's output_model_file, output_scale_file\n"
-                                "and the MarkerPlacer's model, static pose (.mot) and marker set, beside the setup or in --results.");
+                                "and the MarkerPlacer's model, static pose (.mot) and marker set, beside the setup or in --results.\n"
+                                "Without a setup, automatic scaling: --model GENERIC --static TRIAL: per-body factors, marker offsets and\n"
+                                "the static pose fitted together, then markers placed; writes <name>_scaled.osim, _scaleSet_applied.xml\n"
+                                "and _static_output.mot in --results.");
   struct Args {
     std::string setup;
     ToolOverrides o;
   };
   auto a = std::make_shared<Args>();
-  sc->add_option("setup", a->setup, "the ScaleTool setup .xml")->required()->check(CLI::ExistingFile);
-  sc->add_option("--results", a->o.results, "write the outputs here instead of beside the setup");
+  sc->add_option("setup", a->setup, "the ScaleTool setup .xml (without one: automatic scaling)")->check(CLI::ExistingFile);
+  sc->add_option("--results", a->o.results, "write the outputs here (default: beside the setup, or the current folder)");
   sc->add_option("--model", a->o.model, "the generic .osim, instead of the setup's model_file")->check(CLI::ExistingFile);
-  sc->callback([a] { run_scale_setup(a->setup, a->o); });
+  auto au = std::make_shared<AutoScaleArgs>();
+  sc->add_option("--static", au->static_trial, "automatic: the static trial (.trc or .c3d)")->check(CLI::ExistingFile);
+  sc->add_option("--marker-set", au->marker_set, "automatic: a marker-set XML replacing/adding the generic model's markers")
+      ->check(CLI::ExistingFile);
+  sc->add_option("--tasks", au->tasks, "automatic: marker weights (an IKTaskSet .xml or its .json); default every marker 1")
+      ->check(CLI::ExistingFile);
+  sc->add_option("--motion", au->motion, "automatic: motion trials whose frames (10 each) are fitted too; the markers then keep "
+                                          "their fitted offsets")
+      ->check(CLI::ExistingFile);
+  sc->add_option("--mass", au->mass_kg, "automatic: the subject's mass (kg); masses keep their shares");
+  sc->add_option("--time", au->time, "automatic: the static trial's time range averaged (s): T0 T1")->expected(2);
+  sc->add_option("--name", au->name, "automatic: output names' stem and the model's name (default: the static trial's)");
+  sc->add_flag("--per-axis", au->per_axis, "automatic: a factor per body axis instead of one per body");
+  sc->add_flag("--no-symmetry", au->no_symmetry, "automatic: left and right bodies scaled apart");
+  sc->callback([a, au] {
+    if (!a->setup.empty() && au->static_trial.empty()) return run_scale_setup(a->setup, a->o);
+    if (!a->setup.empty()) throw InputError(a->setup, 0, "--static", "give a setup or a static trial (automatic scaling), not both");
+    au->model = a->o.model;
+    if (!a->o.results.empty()) au->results = a->o.results;
+    run_automatic_scaling(*au);
+  });
 }
 
 }  // namespace cpgait::services

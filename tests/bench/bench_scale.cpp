@@ -9,6 +9,7 @@
 #include "cpgait/capture/trc.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/model/osim_writer.h"
+#include "cpgait/scaling/fit_scale_factors.h"
 #include "cpgait/scaling/model_scale_factors.h"
 #include "cpgait/scaling/place_markers.h"
 #include "cpgait/scaling/scale_model.h"
@@ -40,3 +41,29 @@ static void BM_ScaleToolGait2392Subject01(benchmark::State& state) {
 }
 // Arg 0: scale and place; 1: also write the .osim (which reads the generic document again).
 BENCHMARK(BM_ScaleToolGait2392Subject01)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+// Automatic scaling (no measurement set) on the same static trial, with the setup's placer weights:
+// the factors, offsets and pose fitted, the model scaled and its markers placed.
+static void BM_ScaleFitGait2392Subject01(benchmark::State& state) {
+  const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/";
+  if (!std::filesystem::exists(base + "pipeline/subject01_Setup_Scale.xml")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
+    return;
+  }
+  const ScaleSetup setup = read_scale_setup(base + "pipeline/subject01_Setup_Scale.xml");
+  OsimReadOptions o;
+  o.marker_set_file = base + "pipeline/" + setup.marker_set_file;
+  const Model generic = read_osim(base + "model/gait2392_simbody.osim", o).model;
+  const MarkerTrial trial = read_trc(base + "pipeline/" + setup.marker_file);
+  ScaleFitOptions fo;
+  fo.static_time_range_s = setup.placer_time_range_s;
+  fo.subject_mass_kg = setup.mass_kg;
+  int models = 0;
+  for (auto _ : state) {
+    const ScaleFit fit = fit_scale_factors(generic, trial, setup.placer_tasks, {}, fo);
+    benchmark::DoNotOptimize(fit.static_pose.data());
+    ++models;
+  }
+  state.counters["models/s"] = benchmark::Counter(models, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ScaleFitGait2392Subject01)->Unit(benchmark::kMillisecond)->MinTime(2.0);

@@ -5,8 +5,11 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "cpgait/capture/ik_setup.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/scale_setup.h"
 #include "cpgait/capture/storage.h"
 #include "cpgait/capture/trc.h"
@@ -14,6 +17,7 @@
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/scaling/fit_scale_factors.h"
 #include "cpgait/scaling/model_scale_factors.h"
 #include "cpgait/scaling/place_markers.h"
 #include "cpgait/scaling/scale_model.h"
@@ -316,6 +320,50 @@ TEST(ScaleGait2392, RunToolWritesWhatOpenSimsScaleToolWrites) {
   std::filesystem::remove_all(out);
 }
 
+// Bad input: a measurement's marker missing from the static trial, a trial in the wrong units (factors
+// far outside 0.5-2), a mass that is not positive: errors naming the setup, the line and the field.
+TEST(ScaleGait2392, BadInputNamesTheSetupLineAndField) {
+  Subject01Scale s;
+  if (!s.load({})) GTEST_SKIP() << "reference data absent: " << s.missing;
+  ScaleSetup setup = s.setup;
+  const ScaleMeasurement& first = setup.measurements.front();
+  MarkerTrial renamed = s.trial;
+  for (auto& n : renamed.marker_names)
+    if (n == first.marker_pairs.front().first) n = "not_this_one";
+  try {
+    model_scale_factors(s.model, setup, &renamed);
+    ADD_FAILURE() << "a missing marker was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), setup.file);
+    EXPECT_EQ(e.line(), first.line);
+    EXPECT_NE(e.field().find(first.name), std::string::npos) << e.what();
+    EXPECT_NE(e.message().find(first.marker_pairs.front().first), std::string::npos) << e.what();
+  }
+  MarkerTrial in_cm = s.trial;  // millimetres read as centimetres: every distance 10x
+  in_cm.positions_m *= 10;
+  try {
+    model_scale_factors(s.model, setup, &in_cm);
+    ADD_FAILURE() << "a scale factor of 10 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), first.line);
+    EXPECT_NE(e.message().find("outside 0.5-2.0"), std::string::npos) << e.what();
+  }
+  const std::string dir = refdata::temp_dir("scale_bad");
+  std::string text = text::read_file(s.pipeline + "subject01_Setup_Scale.xml");
+  const auto at = text.find("<mass>");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, text.find("</mass>") - at, "<mass>0");
+  { std::ofstream(dir + "/setup.xml") << text; }
+  try {
+    read_scale_setup(dir + "/setup.xml");
+    ADD_FAILURE() << "a zero mass was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "mass");
+    EXPECT_GT(e.line(), 0);
+  }
+  std::filesystem::remove_all(dir);
+}
+
 // Acceptance 2: IK of the walking trial on our scaled and placed model against IK on OpenSim 4.1's
 // (the same IK, so the difference is the models'): per-frame marker RMS within 0.5 mm.
 TEST(ScaleGait2392, WalkingIkOnOurModelMatchesIkOnOpenSims) {
@@ -343,6 +391,66 @@ TEST(ScaleGait2392, WalkingIkOnOurModelMatchesIkOnOpenSims) {
               a.marker_rms_m.size(), 1e3 * mean_a, 1e3 * mean_b, 1e3 * worst);
   EXPECT_GT(a.marker_rms_m.size(), 100u);
   EXPECT_LT(worst, 5e-4);
+}
+
+// `cpgait scale` without a setup: automatic scaling writes the placed model (the subject's mass), its
+// scale set and static pose; a mass that is not positive is refused naming the option.
+TEST(ScaleGait2392, ScaleCommandScalesAutomaticallyWithoutASetup) {
+  Subject01Scale s;
+  if (!s.load({})) GTEST_SKIP() << "reference data absent: " << s.missing;
+  const std::string out = refdata::temp_dir("scale_auto");
+  const std::string common = "scale --model " + s.generic + " --marker-set " + s.pipeline + "gait2392_Scale_MarkerSet.xml --static " +
+                             s.pipeline + "subject01_static.trc --time 1 2 --results " + out;
+  const auto bad = refdata::run_cpgait(common + " --mass -3");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.output.find("--mass"), std::string::npos) << bad.output;
+  EXPECT_FALSE(std::filesystem::exists(out + "/subject01_static_scaled.osim"));
+  const auto run = refdata::run_cpgait(common + " --mass 72.6 --name subject01");
+  ASSERT_EQ(run.status, 0) << run.output;
+  const Model m = read_osim(out + "/subject01_scaled.osim").model;
+  EXPECT_EQ(m.name, "subject01");
+  EXPECT_NEAR(m.total_mass_kg(), 72.6, 1e-9);
+  EXPECT_EQ(m.markers.size(), s.model.markers.size());
+  EXPECT_EQ(read_storage(out + "/subject01_static_output.mot").num_rows(), 1);
+  EXPECT_TRUE(std::filesystem::exists(out + "/subject01_scaleSet_applied.xml"));
+  EXPECT_NE(run.output.find("scale fit:"), std::string::npos) << run.output;
+  std::filesystem::remove_all(out);
+}
+
+// Acceptance 3: automatic scaling (no measurement set) from the generic model and the static trial,
+// with the setup's marker weights: walk1's IK marker RMS on it against that on OpenSim 4.1's model
+// (measurement-scaled and placed by the setup).
+TEST(ScaleGait2392, AutomaticScalingWalksNoWorseThanOpenSimsModel) {
+  const std::string theirs_path = refdata::shared_path("opensim41-here/Scale/subject01_simbody.osim");
+  Subject01Scale s;
+  if (!s.load({theirs_path, s.pipeline + "subject01_walk1.trc", s.pipeline + "subject01_Setup_IK.xml"}))
+    GTEST_SKIP() << "reference data absent: " << s.missing;
+  ScaleFitOptions o;
+  o.static_time_range_s = s.setup.placer_time_range_s;
+  o.subject_mass_kg = s.setup.mass_kg;
+  const ScaleFit fit = fit_scale_factors(s.model, s.trial, s.setup.placer_tasks, {}, o);
+  std::printf("%s\n", fit.summary.BriefReport().c_str());
+  const ModelScaleFactors measured = model_scale_factors(s.model, s.setup, &s.trial);
+  for (std::size_t b = 1; b < s.model.bodies.size(); ++b)
+    std::printf("  %-10s fitted %.4f %.4f %.4f, measured %.4f %.4f %.4f\n", s.model.bodies[b].name.c_str(), fit.factors[b][0],
+                fit.factors[b][1], fit.factors[b][2], measured.body[b][0], measured.body[b][1], measured.body[b][2]);
+  const Model theirs = read_osim(theirs_path).model;
+  const MarkerTrial walk = read_trc(s.pipeline + "subject01_walk1.trc");
+  const IkSetup ik = read_ik_setup(s.pipeline + "subject01_Setup_IK.xml");
+  IkOptions io;
+  io.time_range_s = ik.time_range_s;
+  const IkResult a = inverse_kinematics(fit.model, walk, ik.tasks, io), b = inverse_kinematics(theirs, walk, ik.tasks, io);
+  std::printf("walk1 IK mean marker RMS: %.2f mm on the automatically scaled model, %.2f mm on OpenSim 4.1's\n",
+              1e3 * a.summary.mean_marker_rms_m, 1e3 * b.summary.mean_marker_rms_m);
+  EXPECT_NEAR(fit.model.total_mass_kg(), 72.6, 1e-9);
+  EXPECT_LE(a.summary.mean_marker_rms_m, b.summary.mean_marker_rms_m);
+  // The option of fitting the walk's frames too (10 of them): offsets are then told apart from the
+  // factors by the markers' motion; reported, and no worse on the trial it saw.
+  const ScaleFit with_walk = fit_scale_factors(s.model, s.trial, s.setup.placer_tasks, {&walk}, o);
+  const IkResult c = inverse_kinematics(with_walk.model, walk, ik.tasks, io);
+  std::printf("%s\nwith 10 walking frames: walk1 IK mean marker RMS %.2f mm\n", with_walk.summary.BriefReport().c_str(),
+              1e3 * c.summary.mean_marker_rms_m);
+  EXPECT_LE(c.summary.mean_marker_rms_m, a.summary.mean_marker_rms_m);
 }
 
 }  // namespace

@@ -1,10 +1,15 @@
 // scale_model's rules that the gait2392 reference (tests/reference/test_scale_gait2392.cpp) does not
-// reach: wrap objects, whose dimensions OpenSim scales along the shape's own axes.
+// reach - wrap objects, whose dimensions OpenSim scales along the shape's own axes - and forward
+// kinematics with body scales against it.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
+#include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/model/osim_reader.h"
 #include "cpgait/scaling/scale_model.h"
+#include "test_support.h"
 
 using namespace cpgait;
 
@@ -39,4 +44,27 @@ TEST(ScaleModel, WrapObjectsScaleAlongTheirOwnAxes) {
   // Ellipsoid: each radius by its axis's factor.
   EXPECT_TRUE(s.wrap_objects[2].dimensions_m.isApprox(Eigen::Vector3d(0.011, 0.024, 0.039), 1e-15));
   EXPECT_TRUE(s.wrap_objects[3].dimensions_m.isApprox(Eigen::Vector3d(0.011, 0.026, 0.036), 1e-15));
+}
+
+// Forward kinematics given body scales places every body where it is on the model scale_model
+// scales (the automatic scale fit differentiates the former): the walker, whose knee translations
+// follow the knee angle, with uneven factors at random poses.
+TEST(ScaleModel, ScaledForwardKinematicsIsTheScaledModels) {
+  const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.8, 1.25), angle(-0.8, 0.8);
+  std::vector<Eigen::Vector3d> f(m.bodies.size());
+  for (auto& v : f) v = Eigen::Vector3d(u(rng), u(rng), u(rng));
+  const Model scaled = scale_model(m, f, false, -1);
+  KinematicsWorkspace<double> a(m), b(m);
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::VectorXd q = m.default_coordinates();
+    for (int c = 0; c < m.num_coordinates(); ++c) q[c] += angle(rng);
+    forward_kinematics(m, q.data(), a, f.data());
+    forward_kinematics(scaled, q.data(), b);
+    for (std::size_t k = 0; k < m.bodies.size(); ++k) {
+      EXPECT_LT((a.body_in_ground[k].translation_m - b.body_in_ground[k].translation_m).norm(), 1e-14) << m.bodies[k].name;
+      EXPECT_LT((a.body_in_ground[k].rotation - b.body_in_ground[k].rotation).norm(), 1e-14) << m.bodies[k].name;
+    }
+  }
 }

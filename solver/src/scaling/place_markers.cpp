@@ -7,11 +7,7 @@
 
 namespace cpgait {
 
-MarkerPlacement place_markers(const Model& model, const MarkerTrial& trial, const IkTaskSet& tasks,
-                              const std::optional<std::pair<double, double>>& time_range_s) {
-  MarkerPlacement r;
-  r.model = model;
-  // One frame: each marker's mean over the frames in the range where it was seen.
+MarkerTrial average_static_frame(const MarkerTrial& trial, const std::optional<std::pair<double, double>>& time_range_s) {
   const int nm = trial.num_markers();
   double t0 = trial.time_s.front(), t1 = trial.time_s.back();
   if (time_range_s) t0 = time_range_s->first, t1 = time_range_s->second;
@@ -34,6 +30,14 @@ MarkerPlacement place_markers(const Model& model, const MarkerTrial& trial, cons
     }
     if (n) avg.positions_m.col(m) = sum / n;
   }
+  return avg;
+}
+
+MarkerPlacement place_markers(const Model& model, const MarkerTrial& trial, const IkTaskSet& tasks,
+                              const std::optional<std::pair<double, double>>& time_range_s) {
+  MarkerPlacement r;
+  r.model = model;
+  const MarkerTrial avg = average_static_frame(trial, time_range_s);
   r.time_s = avg.time_s[0];
   const IkResult ik = inverse_kinematics(model, avg, tasks, IkOptions{});
   r.static_pose = ik.q.row(0).transpose();

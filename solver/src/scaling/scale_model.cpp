@@ -8,10 +8,6 @@
 namespace cpgait {
 namespace {
 
-bool is_identity(const Function& f) {
-  return f.kind() == Function::Kind::kLinear && f.value(0.0) == 0.0 && f.value(1.0) == 1.0;
-}
-
 // Body::scaleInertialProperties: uniform factors scale the inertia by s^2 (and the mass's change);
 // otherwise the body is seen as a cylinder along its smallest principal moment, stretched.
 void scale_inertia(Body& b, const Eigen::Vector3d& s, bool scale_mass) {
@@ -77,7 +73,7 @@ Model scale_model(const Model& generic, const std::vector<Eigen::Vector3d>& fact
     j.child_offset.translation_m = j.child_offset.translation_m.cwiseProduct(f(j.child_body));
     for (int k = 3; k < 6; ++k) {
       TransformAxis& a = j.axes[k];
-      if (is_identity(a.function)) continue;
+      if (a.function.is_identity()) continue;
       a.function = a.function.scaled(a.axis.dot(f(j.parent_body)));
     }
   }

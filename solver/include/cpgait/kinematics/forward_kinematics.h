@@ -46,9 +46,11 @@ T axis_value(const TransformAxis& ax, const T* q) {
   return ax.coordinate >= 0 ? ax.function.value(q[ax.coordinate]) : T(ax.function.value(0.0));
 }
 
-// X_FM: rotations applied body-fixed in order rotation1..3, then translation along axes of F.
+// X_FM: rotations applied body-fixed in order rotation1..3, then translation along axes of F. With a
+// parent scale, translations that are not the coordinate itself are scaled along their axis, as
+// scale_model scales them.
 template <typename T>
-PoseT<T> joint_transform(const Joint& j, const T* q) {
+PoseT<T> joint_transform(const Joint& j, const T* q, const Eigen::Matrix<T, 3, 1>* parent_scale = nullptr) {
   PoseT<T> X;
   X.rotation.setIdentity();
   for (int s = 0; s < 3; ++s) {
@@ -60,29 +62,40 @@ PoseT<T> joint_transform(const Joint& j, const T* q) {
   for (int s = 3; s < 6; ++s) {
     const TransformAxis& ax = j.axes[s];
     if (ax.coordinate < 0 && ax.function.value(0.0) == 0.0) continue;
-    X.translation_m += ax.axis.cast<T>() * axis_value(ax, q);
+    const Eigen::Matrix<T, 3, 1> a = ax.axis.cast<T>();
+    if (parent_scale && !ax.function.is_identity()) X.translation_m += a * (axis_value(ax, q) * a.dot(*parent_scale));
+    else X.translation_m += a * axis_value(ax, q);
   }
   return X;
 }
 
+// body_scale, when given, holds one factor triple per body: the model is placed as scale_model would
+// scale it (joint frames by their body's factors), on any scalar so that the factors can be
+// differentiated too.
 template <typename T>
-void forward_kinematics(const Model& model, const T* q, KinematicsWorkspace<T>& ws) {
+void forward_kinematics(const Model& model, const T* q, KinematicsWorkspace<T>& ws,
+                        const Eigen::Matrix<T, 3, 1>* body_scale = nullptr) {
   auto& X = ws.body_in_ground;
   X[0].rotation.setIdentity();
   X[0].translation_m.setZero();
   for (const Joint& j : model.joints) {
     const PoseT<T>& P = X[j.parent_body];
-    const PoseT<T> FM = joint_transform(j, q);
+    const PoseT<T> FM = joint_transform(j, q, body_scale ? &body_scale[j.parent_body] : nullptr);
     // X_GF = X_GP * X_PF
     const Eigen::Matrix<T, 3, 3> R_GF = P.rotation * j.parent_offset.rotation.cast<T>();
-    const Eigen::Matrix<T, 3, 1> p_GF = P.rotation * j.parent_offset.translation_m.cast<T>() + P.translation_m;
+    Eigen::Matrix<T, 3, 1> p_PF = j.parent_offset.translation_m.cast<T>(), p_BM = j.child_offset.translation_m.cast<T>();
+    if (body_scale) {
+      p_PF = p_PF.cwiseProduct(body_scale[j.parent_body]);
+      p_BM = p_BM.cwiseProduct(body_scale[j.child_body]);
+    }
+    const Eigen::Matrix<T, 3, 1> p_GF = P.rotation * p_PF + P.translation_m;
     // X_GM = X_GF * X_FM; X_GB = X_GM * X_MB with X_MB = inverse(child_offset).
     const Eigen::Matrix<T, 3, 3> R_GM = R_GF * FM.rotation;
     const Eigen::Matrix<T, 3, 1> p_GM = R_GF * FM.translation_m + p_GF;
     const Eigen::Matrix3d R_BM = j.child_offset.rotation;
     PoseT<T>& C = X[j.child_body];
     C.rotation = R_GM * R_BM.transpose().cast<T>();
-    C.translation_m = p_GM - C.rotation * j.child_offset.translation_m.cast<T>();
+    C.translation_m = p_GM - C.rotation * p_BM;
   }
 }
 

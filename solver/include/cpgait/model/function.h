@@ -26,6 +26,8 @@ class Function {
 
   Kind kind() const { return kind_; }
   bool is_constant() const { return kind_ == Kind::kConstant; }
+  // f(q) = q: a coordinate that is the translation itself (scaling leaves it alone).
+  bool is_identity() const { return kind_ == Kind::kLinear && value(0.0) == 0.0 && value(1.0) == 1.0; }
   double scale() const { return scale_; }
 
   template <typename T>

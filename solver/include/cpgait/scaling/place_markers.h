@@ -23,6 +23,10 @@ struct MarkerPlacement {
   std::vector<std::string> warnings;  // markers left where they were (absent or gap-filled only)
 };
 
+// The static trial as one frame: each marker's mean over the frames in the range (all frames when
+// unset) where it was seen, NaN where it never was; its time is the range's start, as OpenSim's.
+MarkerTrial average_static_frame(const MarkerTrial& trial, const std::optional<std::pair<double, double>>& time_range_s);
+
 MarkerPlacement place_markers(const Model& model, const MarkerTrial& static_trial, const IkTaskSet& tasks,
                               const std::optional<std::pair<double, double>>& time_range_s);
 
