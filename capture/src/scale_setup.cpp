@@ -17,10 +17,7 @@ std::vector<pugi::xml_node> set_objects(const pugi::xml_node& parent, const char
   return out;
 }
 
-}  // namespace
-
-ScaleSetup read_scale_setup(const std::string& path) {
-  const auto d = xml::Document::load_file(path);
+ScaleSetup read_setup(const xml::Document& d, const std::string& path) {
   const pugi::xml_node tool = d.tool("ScaleTool");
   ScaleSetup s;
   s.name = tool.attribute("name").value();
@@ -91,6 +88,14 @@ ScaleSetup read_scale_setup(const std::string& path) {
   s.output_model_file = d.text(scaler, "output_model_file");
   s.output_scale_file = d.text(scaler, "output_scale_file");
   return s;
+}
+
+}  // namespace
+
+ScaleSetup read_scale_setup(const std::string& path) { return read_setup(xml::Document::load_file(path), path); }
+
+ScaleSetup parse_scale_setup(std::string content, const std::string& name) {
+  return read_setup(xml::Document::load_string(std::move(content), name), name);
 }
 
 }  // namespace cpgait

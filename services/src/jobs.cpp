@@ -194,6 +194,14 @@ void JobRunner::run_trial(const TrialRecord& t) {
       in.loads = text::read_file((dir / "inputs" / "loads.xml").string());
       in.loads_name = "loads.xml";
     }
+    if (fs::exists(dir / "inputs" / "static.trc")) {
+      in.static_markers = text::read_file((dir / "inputs" / "static.trc").string());
+      in.static_name = "static.trc";
+    }
+    if (fs::exists(dir / "inputs" / "scale_setup.xml")) {
+      in.scale_setup = text::read_file((dir / "inputs" / "scale_setup.xml").string());
+      in.scale_setup_name = "scale_setup.xml";
+    }
     StoreObserver observer(store_, events_, metrics_, t, [this, &t] { return cancel_requested(t.id); });
     run_pipeline(in, options, work.string(), &observer);
     fs::remove_all(results, ec);

@@ -39,7 +39,7 @@ class StageProgress : public Progress {
 StageContext open_trial(const TrialInputs& in, const PipelineOptions& options, const std::string& out_dir) {
   OsimReadOptions ro;
   ro.marker_set_file = in.marker_set_path;
-  StageContext trial{in, out_dir, read_osim(in.model_path, ro).model, {}, nullptr, options.time_range_s, {}, {}, nullptr};
+  StageContext trial{in, out_dir, read_osim(in.model_path, ro).model, {}, nullptr, options.time_range_s, {}, {}, nullptr, {}};
   if (!in.generic_model_path.empty()) trial.model = scale_muscle_parameters(trial.model, read_osim(in.generic_model_path).model);
   if (!in.has_footage()) trial.markers = parse_marker_file(in.markers, in.markers_name);
   if (!in.grf.empty() || !in.loads.empty()) {
@@ -111,7 +111,10 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (observer) observer->stage_finished(name, seconds, result.summary[name]);
   }
-  write_text_atomic((fs::path(out_dir) / "job.json").string(), options.to_json().dump(2) + "\n");
+  PipelineOptions recorded = options;
+  for (const auto& [stage, values] : trial.recorded_options)
+    for (const auto& [key, value] : values.items()) recorded.set_stage_option(stage, key, value, "job.json");
+  write_text_atomic((fs::path(out_dir) / "job.json").string(), recorded.to_json().dump(2) + "\n");
   result.files = std::move(trial.files);
   result.files.push_back("job.json");
   return result;

@@ -249,7 +249,11 @@ class Api {
         send_error(res, 400, "missing_part", std::string("videos need a '") + p + "' part", p);
         return false;
       }
-    for (const char* p : {"markers", "grf", "loads", "options", "calibration", "tags"})
+    if (req.has_file("scale_setup") && !req.has_file("static")) {
+      send_error(res, 400, "missing_part", "a 'scale_setup' needs the subject's 'static' trial", "static");
+      return false;
+    }
+    for (const char* p : {"markers", "grf", "loads", "options", "calibration", "tags", "static", "scale_setup"})
       if (req.has_file(p) && !req.get_file_value(p).filename.empty() && !is_safe_file_name(req.get_file_value(p).filename)) {
         send_error(res, 400, "bad_file_name", "unsafe file name '" + req.get_file_value(p).filename + "'", p);
         return false;
@@ -307,6 +311,17 @@ class Api {
     if (req.has_file("loads")) in.loads = req.get_file_value("loads").content, in.loads_name = req.get_file_value("loads").filename;
     if (in.grf_name.empty()) in.grf_name = "grf";
     if (in.loads_name.empty()) in.loads_name = "loads";
+    // A static trial: the model is the generic one, scaled first by the scale stage.
+    if (req.has_file("static")) {
+      const auto st = req.get_file_value("static");
+      in.static_markers = st.content;
+      in.static_name = st.filename.empty() ? "static" : st.filename;
+    }
+    if (req.has_file("scale_setup")) {
+      const auto su = req.get_file_value("scale_setup");
+      in.scale_setup = su.content;
+      in.scale_setup_name = su.filename.empty() ? "scale_setup" : su.filename;
+    }
     return in;
   }
 
@@ -331,12 +346,16 @@ class Api {
       write_text_atomic((inputs / "grf.mot").string(), in.grf);
       write_text_atomic((inputs / "loads.xml").string(), in.loads);
     }
+    if (!in.static_markers.empty()) write_text_atomic((inputs / "static.trc").string(), in.static_markers);
+    if (!in.scale_setup.empty()) write_text_atomic((inputs / "scale_setup.xml").string(), in.scale_setup);
   }
 
   // Which upload part a validation error is about.
   static std::string uploaded_part(const std::string& file, const TrialInputs& in, bool footage) {
     if (file == in.grf_name) return "grf";
     if (file == in.loads_name) return "loads";
+    if (!in.static_name.empty() && file == in.static_name) return "static";
+    if (!in.scale_setup_name.empty() && file == in.scale_setup_name) return "scale_setup";
     if (footage && file == in.calibration_path) return "calibration";
     if (footage && file == in.tags_path) return "tags";
     return footage ? "videos" : "markers";
@@ -475,10 +494,16 @@ class Api {
     // Footage trials: the markers are the capture stage's TRC, on the tag corners it added to the model.
     const bool footage = fs::is_directory(inputs / "videos");
     const std::string markers = footage ? (result_dir(*t) / (t->name + ".trc")).string() : (inputs / "markers.trc").string();
-    const std::string marker_set = footage ? (result_dir(*t) / (t->name + "_tag_markers.xml")).string() : jobs_.marker_set_path(model_id);
+    std::string marker_set = footage ? (result_dir(*t) / (t->name + "_tag_markers.xml")).string() : jobs_.marker_set_path(model_id);
+    // A scaled trial's IK ran on the model its scale stage wrote, markers placed.
+    std::string model = jobs_.model_path(model_id);
+    if (const fs::path scaled = result_dir(*t) / (t->name + "_scaled.osim"); fs::exists(scaled)) {
+      model = scaled.string();
+      marker_set.clear();
+    }
     try {
       send_json(res, 200,
-                trial_kinematics_json(jobs_.model_path(model_id), marker_set,
+                trial_kinematics_json(model, marker_set,
                                       (result_dir(*t) / (t->name + "_ik.mot")).string(), text::read_file(markers),
                                       have_grf ? text::read_file((inputs / "grf.mot").string()) : "",
                                       have_grf ? text::read_file((inputs / "loads.xml").string()) : ""));

@@ -49,6 +49,9 @@ struct StageContext {
   StageProducts products;
   std::vector<std::string> files;  // written so far, relative to out_dir
   Progress* progress = nullptr;    // the running stage's
+  // Options a stage computed that job.json records so that it reproduces the run (the scale
+  // factors): stage -> {key: value}.
+  std::map<std::string, nlohmann::json> recorded_options;
 
   // Writes <trial name><suffix> into out_dir atomically and records it.
   void write(const Storage& table, const std::string& suffix);

@@ -211,6 +211,71 @@ TEST(ApiReference, ModelWithSeparateMarkerSet) {
   fs::remove_all(dir);
 }
 
+// Issue 20, acceptance 4 through the service: the generic gait2392 (with its scale marker set), the
+// static trial and the ScaleTool setup uploaded with the walk; the scale stage runs first and the
+// served results equal `cpgait run --generic-model` on the same files; the review's kinematics use the
+// scaled model. A setup without its static trial, and a static trial that is not one, are refused.
+TEST(ApiReference, GenericModelAndStaticTrialAreScaledFirst) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  const std::string generic = cpgait::refdata::gait2392("model/gait2392_simbody.osim");
+  for (const auto& f : {"gait2392_Scale_MarkerSet.xml", "subject01_static.trc", "subject01_Setup_Scale.xml", "subject01_walk1.trc",
+                        "subject01_walk1_grf.mot", "subject01_walk1_grf.xml", "subject01_Setup_IK.xml"})
+    REQUIRE_REFERENCE(pl + f);
+  REQUIRE_REFERENCE(generic);
+  const std::string dir = cpgait::refdata::temp_dir("api_scale");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", slurp(generic), "gait2392_simbody.osim", ""},
+                                                                    {"markerset", slurp(pl + "gait2392_Scale_MarkerSet.xml"), "markers.xml", ""}});
+  ASSERT_EQ(m->status, 201) << m->body;
+  const json options = {{"model", body(m)["id"]},
+                        {"stages", {"ik", "id", "so"}},
+                        {"ik", {{"tasks", json::parse(cpgait::ik_tasks_json(cpgait::read_ik_tasks(pl + "subject01_Setup_IK.xml")))}}}};
+  auto form = [&](bool with_static, const std::string& static_text) {
+    httplib::MultipartFormDataItems f = trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", options);
+    f.push_back({"grf", slurp(pl + "subject01_walk1_grf.mot"), "subject01_walk1_grf.mot", "text/plain"});
+    f.push_back({"loads", slurp(pl + "subject01_walk1_grf.xml"), "subject01_walk1_grf.xml", "application/xml"});
+    f.push_back({"scale_setup", slurp(pl + "subject01_Setup_Scale.xml"), "subject01_Setup_Scale.xml", "application/xml"});
+    if (with_static) f.push_back({"static", static_text, "subject01_static.trc", "text/plain"});
+    return f;
+  };
+  auto no_static = c.Post("/api/v1/trials", form(false, ""));
+  EXPECT_EQ(no_static->status, 400);
+  EXPECT_EQ(body(no_static)["error"]["field"], "static");
+  auto not_a_trial = c.Post("/api/v1/trials", form(true, "PathFileType\t4\nnot a trc\n"));
+  EXPECT_EQ(not_a_trial->status, 422) << not_a_trial->body;
+  EXPECT_EQ(body(not_a_trial)["error"]["part"], "static") << not_a_trial->body;
+
+  auto t = c.Post("/api/v1/trials", form(true, slurp(pl + "subject01_static.trc")));
+  ASSERT_EQ(t->status, 202) << t->body;
+  const std::string id = body(t)["id"];
+  EXPECT_EQ(follow_events(c, id), "done") << server.log();
+  const json trial = body(c.Get(("/api/v1/trials/" + id).c_str()));
+  ASSERT_EQ(trial["stages"][0]["name"], "scale");
+  EXPECT_EQ(trial["stages"][0]["state"], "done");
+  EXPECT_NEAR(trial["stages"][0]["summary"]["factors"]["pelvis"][0].get<double>(), 1.02458, 1e-5);
+
+  std::ofstream(dir + "/options.json") << options.dump();
+  ASSERT_EQ(run_cli("run --generic-model " + generic + " --marker-set " + pl + "gait2392_Scale_MarkerSet.xml --static " + pl +
+                    "subject01_static.trc --scale-setup " + pl + "subject01_Setup_Scale.xml --markers " + pl + "subject01_walk1.trc --grf " +
+                    pl + "subject01_walk1_grf.mot --loads " + pl + "subject01_walk1_grf.xml --options " + dir + "/options.json -o " + dir + "/cli"),
+            0);
+  for (const std::string suffix : {"_scaled.osim", "_scale_factors.sto", "_static_marker_errors.sto", "_ik.mot", "_id.sto",
+                                   "_StaticOptimization_activation.sto"}) {
+    auto f = c.Get(("/api/v1/trials/" + id + "/files/subject01_walk1" + suffix).c_str());
+    ASSERT_EQ(f->status, 200) << suffix;
+    EXPECT_EQ(f->body, slurp(dir + "/cli/subject01_walk1" + suffix)) << suffix << " differs between the service and cpgait run";
+  }
+  const json scale = body(c.Get(("/api/v1/trials/" + id + "/results/scale").c_str()));
+  ASSERT_EQ(scale["tables"].size(), 2u) << scale.dump();
+  const json kin = body(c.Get(("/api/v1/trials/" + id + "/kinematics").c_str()));
+  ASSERT_TRUE(kin.contains("bodies")) << kin.dump().substr(0, 300);
+  double mass = 0;  // the scaled model's (the subject's 72.6 kg), not the generic 75.16 kg
+  for (const auto& b : kin["bodies"]) mass += b["mass_kg"].get<double>();
+  EXPECT_NEAR(mass, 72.6, 1e-6);
+  fs::remove_all(dir);
+}
+
 // Acceptance 2: kill -9 during a job; after a restart every job ends complete and no finished
 // result changed.
 TEST(Api, KillDuringJobsThenRestartCompletesEverything) {
@@ -396,7 +461,7 @@ TEST(Api, PublishesItsStagesAndTheOptionsSchemaJobJsonFollows) {
     if (s["selectable"].get<bool>()) selectable.push_back(s["name"]);
     EXPECT_TRUE(s["needs"].is_array() && s["writes"].is_array() && !s["writes"].empty()) << s.dump();
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"capture", "ik", "id", "so", "cpg", "gait"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"scale", "capture", "ik", "id", "so", "cpg", "gait"}));
   auto schema_response = c.Get("/api/v1/options/schema");
   ASSERT_EQ(schema_response->status, 200);
   const json schema = json::parse(schema_response->body);
@@ -412,7 +477,8 @@ TEST(Api, PublishesItsStagesAndTheOptionsSchemaJobJsonFollows) {
   const json trial = body(c.Get(("/api/v1/trials/" + id).c_str()));
   std::vector<std::string> trial_stages;
   for (const auto& s : trial["stages"]) trial_stages.push_back(s["name"]);
-  EXPECT_EQ(trial_stages, std::vector<std::string>(names.begin() + 1, names.end()));  // no footage: no capture stage
+  // No static trial, no footage: neither the scale nor the capture stage.
+  EXPECT_EQ(trial_stages, std::vector<std::string>(names.begin() + 2, names.end()));
   EXPECT_EQ(trial["stages"][1]["state"], "done");
   EXPECT_EQ(trial["stages"][2]["state"], "skipped");
   const json job = json::parse(c.Get(("/api/v1/trials/" + id + "/files/job.json").c_str())->body);

@@ -168,6 +168,8 @@ async function uploadView() {
     row('Tag set (.json)', h('input', { type: 'file', id: 'tags', name: 'tags', accept: '.json' }), 'tags'),
     row('GRF (.mot)', h('input', { type: 'file', id: 'grf', name: 'grf', accept: '.mot,.sto' }), 'grf'),
     row('Loads (.xml)', h('input', { type: 'file', id: 'loads', name: 'loads', accept: '.xml' }), 'loads'),
+    row('Static trial (.trc, .c3d)', h('input', { type: 'file', id: 'static', name: 'static', accept: '.trc,.c3d', title: 'the subject standing: the model (the generic one) is scaled to it first' }), 'static'),
+    row('Scale setup (.xml)', h('input', { type: 'file', id: 'scale_setup', name: 'scale_setup', accept: '.xml', title: "OpenSim's ScaleTool setup; without one, with a static trial, scaling is automatic" }), 'scale_setup'),
     row('Model', h('select', { id: 'model', name: 'model' }, models.map((m) => h('option', { value: m.id }, `${m.name} (${m.summary.coordinates} coordinates, ${m.summary.muscles} muscles)`))), 'model'),
     row('Muscle lengths scaled from', h('select', { id: 'scale_muscles_from', name: 'scale_muscles_from' },
       h('option', { value: '' }, 'as in the model'),
@@ -195,7 +197,7 @@ async function uploadView() {
     ev.preventDefault();
     clearErrors(form);
     const fd = new FormData();
-    for (const p of ['markers', 'grf', 'loads', 'calibration', 'tags']) { const f = form.querySelector('#' + p).files[0]; if (f) fd.append(p, f, f.name); }
+    for (const p of ['markers', 'grf', 'loads', 'calibration', 'tags', 'static', 'scale_setup']) { const f = form.querySelector('#' + p).files[0]; if (f) fd.append(p, f, f.name); }
     for (const v of form.querySelector('#videos').files) fd.append('videos', v, v.name);
     const options = { model: form.querySelector('#model').value };
     const generic = form.querySelector('#scale_muscles_from').value;
@@ -209,7 +211,7 @@ async function uploadView() {
       const r = await api('/trials', { method: 'POST', body: fd });
       location.hash = `#/trial/${r.id}`;
     } catch (err) {
-      showError(form, err, (d) => (['markers', 'grf', 'loads', 'videos', 'calibration', 'tags'].includes(d.part) ? d.part
+      showError(form, err, (d) => (['markers', 'grf', 'loads', 'videos', 'calibration', 'tags', 'static', 'scale_setup'].includes(d.part) ? d.part
         : d.field && form.querySelector(`[data-error-for="${CSS.escape(d.field)}"]`) ? d.field
         : d.part === 'options' ? 'stages' : d.field === 'markers' ? 'markers' : null));
     }
@@ -258,10 +260,11 @@ async function trialView(id) {
   const cpgFitted = done('cpg') && cpgSummary.mean_r_squared_active !== undefined;
   const gaitSummary = (trial.stages.find((x) => x.name === 'gait') || {}).summary || {};
   const gaitRan = done('gait') && gaitSummary.reference_begin_s !== undefined;
-  const [kin, ik, id_, so, cpg, gait] = await Promise.all([
+  const [kin, ik, id_, so, cpg, gait, scale] = await Promise.all([
     api(`/trials/${id}/kinematics`), api(`/trials/${id}/results/ik`),
     done('id') ? api(`/trials/${id}/results/id`) : null, done('so') ? api(`/trials/${id}/results/so`) : null,
-    cpgFitted ? api(`/trials/${id}/results/cpg`) : null, gaitRan ? api(`/trials/${id}/results/gait`) : null]);
+    cpgFitted ? api(`/trials/${id}/results/cpg`) : null, gaitRan ? api(`/trials/${id}/results/gait`) : null,
+    done('scale') ? api(`/trials/${id}/results/scale`) : null]);
   const coords = ik.tables[0], errors = ik.tables[1];
   const time = coords.columns[0];
   const n = kin.frames.length;
@@ -286,6 +289,21 @@ async function trialView(id) {
   const card = (title, ...content) => { const c = h('div', { class: 'card' }, h('h2', {}, title), ...content); plotsBox.append(c); return c; };
   const playhead = () => time[frame];
   const redrawAll = () => Object.values(window.__cpgait.plots).forEach((p) => p.redraw && p.redraw(false, false));
+
+  if (scale) {
+    // The scale stage: each body's factors, and each marker's distance from its measured place at the
+    // static pose before the markers were placed.
+    const sum = (trial.stages.find((x) => x.name === 'scale') || {}).summary || {};
+    const errors = scale.tables[1];
+    const markerErr = errors.labels.slice(1).map((l) => [l, 1000 * column(errors, l)[0]]).sort((a, b) => b[1] - a[1]);
+    const worst = markerErr.length ? markerErr[0][1] : 1;
+    card('Scaling',
+      h('div', { class: 'muted' }, `${sum.method}; ${fmt(sum.total_mass_kg, 2)} kg; static marker RMS ${fmt(1000 * sum.static_marker_rms_m, 1)} mm before ${sum.markers_moved} markers were placed`),
+      h('table', { id: 'scale-factors' }, h('tr', {}, ['Body', 'x', 'y', 'z'].map((x) => h('th', {}, x))),
+        Object.entries(sum.factors || {}).map(([b, f]) => h('tr', {}, h('td', {}, b), f.map((v) => h('td', {}, fmt(v, 4)))))),
+      h('div', { id: 'static-marker-errors' }, markerErr.map(([m, e]) => h('div', { class: 'row' }, h('span', {}, m),
+        h('span', { class: 'bar done', title: `${fmt(e, 1)} mm` }, h('span', { style: `width:${Math.round((100 * e) / worst)}%` })), ` ${fmt(e, 1)} mm`))));
+  }
 
   // Joint angles, with an optional OpenSim reference .mot from the user.
   const angleNames = coords.labels.slice(1);

@@ -3,6 +3,7 @@
 
 namespace cpgait::services {
 
+const Stage& scale_stage();
 const Stage& capture_stage();
 const Stage& ik_stage();
 const Stage& id_stage();
@@ -12,7 +13,7 @@ const Stage& gait_stage();
 
 const StageTable& pipeline_stages() {
   static const StageTable table = {
-      &capture_stage(), &ik_stage(), &id_stage(), &so_stage(), &cpg_stage(), &gait_stage(),
+      &scale_stage(), &capture_stage(), &ik_stage(), &id_stage(), &so_stage(), &cpg_stage(), &gait_stage(),
   };
   return table;
 }

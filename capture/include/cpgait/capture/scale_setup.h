@@ -50,5 +50,7 @@ struct ScaleSetup {
 
 // Throws InputError naming the file, line and field for anything malformed.
 ScaleSetup read_scale_setup(const std::string& path);
+// An uploaded setup: files it names are relative to the current folder.
+ScaleSetup parse_scale_setup(std::string content, const std::string& name);
 
 }  // namespace cpgait
