@@ -220,6 +220,33 @@ try {
     }
   });
 
+  if (haveShared) {
+    await check('a generic model with a static trial and a scale setup: the Scaling card shows the factors and marker errors', async () => {
+      const generic = path.join(CPGAIT_SHARED_DIR, 'reference/opensim/gait2392/model/gait2392_simbody.osim');
+      await page.goto(`${base}/#/upload`);
+      await page.waitForSelector('#osim');
+      const before = await page.locator('#model option').count();
+      await page.setInputFiles('#osim', generic);
+      await page.setInputFiles('#markerset', path.join(pipeline, 'gait2392_Scale_MarkerSet.xml'));
+      await page.click('#model-upload button[type=submit]');
+      await page.waitForFunction((n) => document.querySelectorAll('#model option').length > n, before);
+      const values = await page.locator('#model option').evaluateAll((o) => o.map((x) => x.value));
+      await page.selectOption('#model', values[values.length - 1]);
+      await page.setInputFiles('#markers', path.join(pipeline, 'subject01_walk1.trc'));
+      await page.setInputFiles('#static', path.join(pipeline, 'subject01_static.trc'));
+      await page.setInputFiles('#scale_setup', path.join(pipeline, 'subject01_Setup_Scale.xml'));
+      for (const s of ['id', 'so', 'cpg', 'gait']) await page.uncheck(`input[name=stage][value=${s}]`);
+      await page.click('#upload button[type=submit]');
+      await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
+      await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 120000 });
+      assert.equal(await page.locator('#scale-factors tr').count(), 1 + 12);  // header, then gait2392's 12 bodies
+      assert.match(await page.locator('#scale-factors').textContent(), /pelvis1\.0246/);
+      assert.ok(await page.locator('#static-marker-errors .row').count() >= 30);
+      await page.locator('#scale-factors').scrollIntoViewIfNeeded();
+      await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-scaling.png'), fullPage: true });
+    });
+  }
+
   await check('no script errors', async () => assert.deepEqual(consoleErrors, []));
 } finally {
   await browser.close();

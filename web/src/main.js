@@ -301,7 +301,7 @@ async function trialView(id) {
       h('div', { class: 'muted' }, `${sum.method}; ${fmt(sum.total_mass_kg, 2)} kg; static marker RMS ${fmt(1000 * sum.static_marker_rms_m, 1)} mm before ${sum.markers_moved} markers were placed`),
       h('table', { id: 'scale-factors' }, h('tr', {}, ['Body', 'x', 'y', 'z'].map((x) => h('th', {}, x))),
         Object.entries(sum.factors || {}).map(([b, f]) => h('tr', {}, h('td', {}, b), f.map((v) => h('td', {}, fmt(v, 4)))))),
-      h('div', { id: 'static-marker-errors' }, markerErr.map(([m, e]) => h('div', { class: 'row' }, h('span', {}, m),
+      h('div', { id: 'static-marker-errors' }, markerErr.map(([m, e]) => h('div', { class: 'row' }, h('span', { style: 'display:inline-block;width:9em' }, m),
         h('span', { class: 'bar done', title: `${fmt(e, 1)} mm` }, h('span', { style: `width:${Math.round((100 * e) / worst)}%` })), ` ${fmt(e, 1)} mm`))));
   }
 
