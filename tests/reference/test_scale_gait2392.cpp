@@ -322,7 +322,8 @@ TEST(ScaleGait2392, RunToolWritesWhatOpenSimsScaleToolWrites) {
 }
 
 // Bad input: a measurement's marker missing from the static trial, a trial in the wrong units (factors
-// far outside 0.5-2), a mass that is not positive: errors naming the setup, the line and the field.
+// far outside 0.5-2), a mass that is not positive, a marker set naming an unknown body: errors naming
+// the file, the line and the field.
 TEST(ScaleGait2392, BadInputNamesTheSetupLineAndField) {
   Subject01Scale s;
   if (!s.load({})) GTEST_SKIP() << "reference data absent: " << s.missing;
@@ -361,6 +362,23 @@ TEST(ScaleGait2392, BadInputNamesTheSetupLineAndField) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "mass");
     EXPECT_GT(e.line(), 0);
+  }
+  // A marker set naming a body the generic model lacks.
+  {
+    std::ofstream(dir + "/markers.xml") << "<OpenSimDocument Version=\"40000\"><MarkerSet><objects>\n"
+                                           "<Marker name=\"X\"><socket_parent_frame>/bodyset/femur_r</socket_parent_frame></Marker>\n"
+                                           "<Marker name=\"Y\"><socket_parent_frame>/bodyset/humerus_r</socket_parent_frame></Marker>\n"
+                                           "</objects></MarkerSet></OpenSimDocument>\n";
+  }
+  OsimReadOptions o;
+  o.marker_set_file = dir + "/markers.xml";
+  try {
+    read_osim(s.generic, o);
+    ADD_FAILURE() << "a marker on an unknown body was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), dir + "/markers.xml");
+    EXPECT_EQ(e.line(), 3);
+    EXPECT_NE(e.message().find("humerus_r"), std::string::npos) << e.what();
   }
   std::filesystem::remove_all(dir);
 }
