@@ -1,5 +1,6 @@
 #include "cpgait/capture/c3d.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -155,6 +156,29 @@ const C3dParameter* C3dFile::parameter(std::string_view group, std::string_view 
 
 bool looks_like_c3d(std::string_view bytes) { return bytes.size() >= kBlock && static_cast<std::uint8_t>(bytes[1]) == 0x50; }
 
+namespace {
+// EVENT:USED events from TIMES (minutes, seconds pairs), LABELS and CONTEXTS.
+void read_events(C3dFile& f) {
+  const C3dParameter* used = f.parameter("EVENT", "USED");
+  const C3dParameter* times = f.parameter("EVENT", "TIMES");
+  if (!used || used->numbers.empty() || used->numbers[0] <= 0 || !times) return;
+  const std::size_t n = static_cast<std::size_t>(used->numbers[0]);
+  if (times->numbers.size() < 2 * n)
+    throw InputError(f.name, 0, "EVENT:TIMES", "expected " + std::to_string(2 * n) + " numbers (minutes, seconds) for EVENT:USED events");
+  const C3dParameter* labels = f.parameter("EVENT", "LABELS");
+  const C3dParameter* contexts = f.parameter("EVENT", "CONTEXTS");
+  for (std::size_t i = 0; i < n; ++i) {
+    C3dEvent e;
+    e.time_s = 60.0 * times->numbers[2 * i] + times->numbers[2 * i + 1];
+    if (!std::isfinite(e.time_s)) throw InputError(f.name, 0, "EVENT:TIMES", "event " + std::to_string(i + 1) + "'s time is not finite");
+    if (labels && i < labels->strings.size()) e.label = labels->strings[i];
+    if (contexts && i < contexts->strings.size()) e.context = contexts->strings[i];
+    f.events.push_back(e);
+  }
+  std::stable_sort(f.events.begin(), f.events.end(), [](const C3dEvent& a, const C3dEvent& b) { return a.time_s < b.time_s; });
+}
+}  // namespace
+
 C3dFile parse_c3d(std::string_view data, const std::string& name) {
   Bytes in(data, name);
   C3dFile f;
@@ -255,6 +279,7 @@ C3dFile parse_c3d(std::string_view data, const std::string& name) {
     if (unsigned_data) col = col.unaryExpr([](double v) { return v < 0 ? v + 65536 : v; });
     col = (col.array() - offset) * channel_scale * gen_scale;
   }
+  read_events(f);
   return f;
 }
 

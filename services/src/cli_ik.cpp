@@ -4,6 +4,7 @@
 #include <string>
 
 #include "commands.h"
+#include "cpgait/capture/ground_reactions.h"
 #include "cpgait/capture/ik_setup.h"
 #include "cpgait/capture/marker_file.h"
 #include "cpgait/capture/input_error.h"
@@ -17,6 +18,10 @@ namespace cpgait::services {
 namespace fs = std::filesystem;
 
 namespace {
+
+C3dVertical parse_c3d_vertical(const std::string& s) {
+  return s == "z" ? C3dVertical::kZ : s == "y" ? C3dVertical::kY : C3dVertical::kAuto;
+}
 
 IkOptions::Bounds parse_bounds(const std::string& s) {
   if (s == "clamped") return IkOptions::Bounds::kClampedOnly;
@@ -74,24 +79,57 @@ void run_ik_setup(const std::string& setup_path, const ToolOverrides& o) {
 namespace {
 // convert: a C3D trial for OpenSim.
 void add_convert_command(CLI::App& app) {
-  auto* convert = app.add_subcommand("convert",
-                                     "Convert a C3D trial for OpenSim: DIR/<name>.trc (mm) with the markers in OpenSim's Y-up frame\n"
-                                     "(a Z-up lab turned -90 deg about X unless --c3d-vertical y). Force plates: to come.");
+  auto* convert = app.add_subcommand(
+      "convert",
+      "Convert a C3D trial for OpenSim, in its Y-up frame (the lab's vertical from the force plates or POINT:Y_SCREEN, or\n"
+      "--c3d-vertical): DIR/<name>.trc (mm); with force plates, DIR/<name>_grf.mot (per plate and foot: force N,\n"
+      "centre of pressure m, free torque N m, on the subject) and DIR/<name>_grf.xml, the ExternalLoads applying each\n"
+      "to the foot whose heel marker is nearest (or --plate-foot). Its EVENTs are listed.");
   struct ConvertArgs {
-    std::string input, out, c3d_vertical = "z";
+    std::string input, out, c3d_vertical = "auto";
+    std::vector<std::string> plate_foot;
+    GroundReactionOptions grf;
   };
   auto c = std::make_shared<ConvertArgs>();
   convert->add_option("input", c->input, "the trial (.c3d)")->required()->check(CLI::ExistingFile);
-  convert->add_option("--c3d-vertical", c->c3d_vertical, "the file's vertical axis: z or y")->check(CLI::IsMember({"z", "y"}))->capture_default_str();
+  convert->add_option("--c3d-vertical", c->c3d_vertical, "the file's vertical axis: auto, z or y")
+      ->check(CLI::IsMember({"auto", "z", "y"}))
+      ->capture_default_str();
+  convert->add_option("--threshold", c->grf.threshold_N, "vertical force (N) below which a plate is unloaded")->capture_default_str();
+  convert->add_option("--plate-foot", c->plate_foot, "a plate's foot instead of the nearest heel marker's: N=r or N=l");
+  convert->add_option("--right-body", c->grf.right_body, "the body the right foot's loads act on")->capture_default_str();
+  convert->add_option("--left-body", c->grf.left_body, "the body the left foot's loads act on")->capture_default_str();
   convert->add_option("-o,--output", c->out, "output folder")->required();
   convert->callback([c] {
-    const MarkerTrial trial = read_marker_file(c->input, c->c3d_vertical == "y" ? C3dVertical::kY : C3dVertical::kZ);
+    for (const std::string& pf : c->plate_foot) {
+      const auto eq = pf.find('=');
+      if (eq == std::string::npos || eq + 2 != pf.size() || (pf.back() != 'r' && pf.back() != 'l'))
+        throw InputError("cpgait convert", 0, "--plate-foot", "expected N=r or N=l, got '" + pf + "'");
+      c->grf.plate_foot[std::stoi(pf.substr(0, eq))] = pf.back();
+    }
+    const C3dFile file = read_c3d(c->input);
+    const Eigen::Matrix3d to_opensim = c3d_to_opensim(file, parse_c3d_vertical(c->c3d_vertical));
+    MarkerTrial trial = file.markers;
+    trial.positions_m = to_opensim * trial.positions_m;
     print_warnings(trial.warnings);
     ensure_directory(c->out);
-    const std::string trc = (fs::path(c->out) / (fs::path(c->input).stem().string() + ".trc")).string();
+    const std::string stem = fs::path(c->input).stem().string();
+    const std::string trc = (fs::path(c->out) / (stem + ".trc")).string();
     write_text_atomic(trc, format_trc(trial, "mm"));
     std::printf("wrote %s (%d markers x %d frames at %g Hz, %zu gaps)\n", trc.c_str(), trial.num_markers(), trial.num_frames(),
                 trial.data_rate_hz, trial.gaps().size());
+    for (const auto& e : file.events) std::printf("event %s %s at %.4f s\n", e.context.c_str(), e.label.c_str(), e.time_s);
+    const GroundReactions g = ground_reactions(file, to_opensim, c->grf);
+    print_warnings(g.warnings);
+    if (g.loads.empty()) return;
+    for (const auto& st : g.stances)
+      std::printf("plate %d: %s foot, %.3f-%.3f s, peak %.0f N\n", st.plate, st.foot == 'r' ? "right" : st.foot == 'l' ? "left" : "unknown",
+                  st.begin_s, st.end_s, st.peak_vertical_N);
+    const std::string mot = (fs::path(c->out) / (stem + "_grf.mot")).string(), xml = (fs::path(c->out) / (stem + "_grf.xml")).string();
+    write_storage_atomic(g.grf, mot);
+    write_text_atomic(xml, external_loads_document(g, stem + "_grf.mot"));
+    std::printf("wrote %s (%zu loads x %d samples at %g Hz)\nwrote %s\n", mot.c_str(), g.loads.size(), g.grf.num_rows(),
+                file.analog.rate_hz, xml.c_str());
   });
 }
 
@@ -106,14 +144,14 @@ void add_ik_commands(CLI::App& app) {
                                 "<name>_ik_marker_errors.sto (per frame: total squared error m^2, RMS and max error m, the\n"
                                 "worst marker's column position, then each tracked marker's error m).");
   struct IkArgs {
-    std::string model, markers, setup, tasks, marker_set, out, name, bounds = "clamped", c3d_vertical = "z";
+    std::string model, markers, setup, tasks, marker_set, out, name, bounds = "clamped", c3d_vertical = "auto";
     std::vector<double> time;
   };
   auto a = std::make_shared<IkArgs>();
   ik->add_option("--model", a->model, "OpenSim model (.osim), 3.x or 4.x")->required()->check(CLI::ExistingFile);
   ik->add_option("--markers", a->markers, "marker trajectories (.trc or .c3d)")->required()->check(CLI::ExistingFile);
-  ik->add_option("--c3d-vertical", a->c3d_vertical, "a .c3d's vertical axis: z (turned to OpenSim's Y-up) or y (as recorded)")
-      ->check(CLI::IsMember({"z", "y"}))
+  ik->add_option("--c3d-vertical", a->c3d_vertical, "a .c3d's vertical axis: auto (from the file), z (turned to OpenSim's Y-up) or y (as recorded)")
+      ->check(CLI::IsMember({"auto", "z", "y"}))
       ->capture_default_str();
   ik->add_option("--setup", a->setup, "OpenSim IK setup (.xml) whose IKTaskSet and time range are used")
       ->check(CLI::ExistingFile);
@@ -131,7 +169,7 @@ void add_ik_commands(CLI::App& app) {
     ro.marker_set_file = a->marker_set;
     const OsimReadResult mr = read_osim(a->model, ro);
     print_warnings(mr.warnings);
-    const MarkerTrial trial = read_marker_file(a->markers, a->c3d_vertical == "y" ? C3dVertical::kY : C3dVertical::kZ);
+    const MarkerTrial trial = read_marker_file(a->markers, parse_c3d_vertical(a->c3d_vertical));
     print_warnings(trial.warnings);
     IkOptions options;
     options.bounds = parse_bounds(a->bounds);

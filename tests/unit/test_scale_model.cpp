@@ -60,7 +60,7 @@ TEST(ScaleModel, ScaledForwardKinematicsIsTheScaledModels) {
   for (int trial = 0; trial < 5; ++trial) {
     Eigen::VectorXd q = m.default_coordinates();
     for (int c = 0; c < m.num_coordinates(); ++c) q[c] += angle(rng);
-    forward_kinematics(m, q.data(), a, f.data());
+    scaled_forward_kinematics(m, q.data(), f.data(), a);
     forward_kinematics(scaled, q.data(), b);
     for (std::size_t k = 0; k < m.bodies.size(); ++k) {
       EXPECT_LT((a.body_in_ground[k].translation_m - b.body_in_ground[k].translation_m).norm(), 1e-14) << m.bodies[k].name;

@@ -77,7 +77,7 @@ struct MarkerResidual {
     apply_coordinate_couplers(*model, q.data());
     const auto scales = groups->body_scales(p[1]);
     KinematicsWorkspace<T> ws(*model);
-    forward_kinematics(*model, q.data(), ws, scales.data());
+    scaled_forward_kinematics(*model, q.data(), scales.data(), ws);
     const PoseT<T>& B = ws.body_in_ground[body];
     const Eigen::Matrix<T, 3, 1> local = location_m.cast<T>().cwiseProduct(scales[body]) + Eigen::Matrix<T, 3, 1>(p[2][0], p[2][1], p[2][2]);
     const Eigen::Matrix<T, 3, 1> e = B.rotation * local + B.translation_m - measured_m.cast<T>();

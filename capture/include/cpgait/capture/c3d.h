@@ -27,6 +27,13 @@ struct C3dAnalog {
   Eigen::MatrixXd values;     // samples x channels: (raw - OFFSET) * SCALE * GEN_SCALE
 };
 
+// EVENT group: a heel strike, toe off or other moment, on the points' clock ((frame - 1) / rate).
+struct C3dEvent {
+  std::string context;  // EVENT:CONTEXTS ("Left", "Right", ...), empty when the file has none
+  std::string label;    // EVENT:LABELS ("Foot Strike", "LHS", ...)
+  double time_s = 0;    // EVENT:TIMES: minutes * 60 + seconds
+};
+
 struct C3dFile {
   std::string name;
   enum class Processor { kIntel, kDec, kMips } processor = Processor::kIntel;
@@ -35,6 +42,7 @@ struct C3dFile {
   MarkerTrial markers;  // metres, lab frame as recorded; frame_numbers from first_frame, time (frame - 1) / rate
   C3dAnalog analog;
   std::vector<C3dParameter> parameters;
+  std::vector<C3dEvent> events;  // in time order
 
   // GROUP:NAME, or null; names compare as stored (upper case by convention).
   const C3dParameter* parameter(std::string_view group, std::string_view name) const;

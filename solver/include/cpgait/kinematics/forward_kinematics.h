@@ -46,10 +46,10 @@ T axis_value(const TransformAxis& ax, const T* q) {
   return ax.coordinate >= 0 ? ax.function.value(q[ax.coordinate]) : T(ax.function.value(0.0));
 }
 
-// X_FM: rotations applied body-fixed in order rotation1..3, then translation along axes of F. With a
-// parent scale, translations that are not the coordinate itself are scaled along their axis, as
-// scale_model scales them.
-template <typename T>
+// X_FM: rotations applied body-fixed in order rotation1..3, then translation along axes of F. Scaled
+// (kScaled, with the parent body's factors), translations that are not the coordinate itself are
+// scaled along their axis, as scale_model scales them; the unscaled instance is the plain one.
+template <typename T, bool kScaled = false>
 PoseT<T> joint_transform(const Joint& j, const T* q, const Eigen::Matrix<T, 3, 1>* parent_scale = nullptr) {
   PoseT<T> X;
   X.rotation.setIdentity();
@@ -62,41 +62,60 @@ PoseT<T> joint_transform(const Joint& j, const T* q, const Eigen::Matrix<T, 3, 1
   for (int s = 3; s < 6; ++s) {
     const TransformAxis& ax = j.axes[s];
     if (ax.coordinate < 0 && ax.function.value(0.0) == 0.0) continue;
-    const Eigen::Matrix<T, 3, 1> a = ax.axis.cast<T>();
-    if (parent_scale && !ax.function.is_identity()) X.translation_m += a * (axis_value(ax, q) * a.dot(*parent_scale));
-    else X.translation_m += a * axis_value(ax, q);
+    if constexpr (kScaled) {
+      if (!ax.function.is_identity()) {
+        const Eigen::Matrix<T, 3, 1> a = ax.axis.cast<T>();
+        X.translation_m += a * (axis_value(ax, q) * a.dot(*parent_scale));
+        continue;
+      }
+    }
+    X.translation_m += ax.axis.cast<T>() * axis_value(ax, q);
   }
   return X;
 }
 
-// body_scale, when given, holds one factor triple per body: the model is placed as scale_model would
-// scale it (joint frames by their body's factors), on any scalar so that the factors can be
-// differentiated too.
-template <typename T>
-void forward_kinematics(const Model& model, const T* q, KinematicsWorkspace<T>& ws,
-                        const Eigen::Matrix<T, 3, 1>* body_scale = nullptr) {
+namespace detail {
+template <typename T, bool kScaled>
+void forward_kinematics(const Model& model, const T* q, KinematicsWorkspace<T>& ws, const Eigen::Matrix<T, 3, 1>* body_scale) {
   auto& X = ws.body_in_ground;
   X[0].rotation.setIdentity();
   X[0].translation_m.setZero();
   for (const Joint& j : model.joints) {
     const PoseT<T>& P = X[j.parent_body];
-    const PoseT<T> FM = joint_transform(j, q, body_scale ? &body_scale[j.parent_body] : nullptr);
-    // X_GF = X_GP * X_PF
+    const PoseT<T> FM = joint_transform<T, kScaled>(j, q, kScaled ? &body_scale[j.parent_body] : nullptr);
+    // X_GF = X_GP * X_PF (the unscaled instance keeps the offsets as expressions: no Jet copies)
     const Eigen::Matrix<T, 3, 3> R_GF = P.rotation * j.parent_offset.rotation.cast<T>();
-    Eigen::Matrix<T, 3, 1> p_PF = j.parent_offset.translation_m.cast<T>(), p_BM = j.child_offset.translation_m.cast<T>();
-    if (body_scale) {
-      p_PF = p_PF.cwiseProduct(body_scale[j.parent_body]);
-      p_BM = p_BM.cwiseProduct(body_scale[j.child_body]);
-    }
-    const Eigen::Matrix<T, 3, 1> p_GF = P.rotation * p_PF + P.translation_m;
+    const Eigen::Matrix<T, 3, 1> p_GF = [&] {
+      if constexpr (kScaled)
+        return Eigen::Matrix<T, 3, 1>(P.rotation * j.parent_offset.translation_m.cast<T>().cwiseProduct(body_scale[j.parent_body]) +
+                                      P.translation_m);
+      else
+        return Eigen::Matrix<T, 3, 1>(P.rotation * j.parent_offset.translation_m.cast<T>() + P.translation_m);
+    }();
     // X_GM = X_GF * X_FM; X_GB = X_GM * X_MB with X_MB = inverse(child_offset).
     const Eigen::Matrix<T, 3, 3> R_GM = R_GF * FM.rotation;
     const Eigen::Matrix<T, 3, 1> p_GM = R_GF * FM.translation_m + p_GF;
     const Eigen::Matrix3d R_BM = j.child_offset.rotation;
     PoseT<T>& C = X[j.child_body];
     C.rotation = R_GM * R_BM.transpose().cast<T>();
-    C.translation_m = p_GM - C.rotation * p_BM;
+    if constexpr (kScaled)
+      C.translation_m = p_GM - C.rotation * j.child_offset.translation_m.cast<T>().cwiseProduct(body_scale[j.child_body]);
+    else
+      C.translation_m = p_GM - C.rotation * j.child_offset.translation_m.cast<T>();
   }
+}
+}  // namespace detail
+
+template <typename T>
+void forward_kinematics(const Model& model, const T* q, KinematicsWorkspace<T>& ws) {
+  detail::forward_kinematics<T, false>(model, q, ws, nullptr);
+}
+
+// The model placed as scale_model would scale it with one factor triple per body (joint frames by
+// their body's factors), on any scalar so that the factors can be differentiated too.
+template <typename T>
+void scaled_forward_kinematics(const Model& model, const T* q, const Eigen::Matrix<T, 3, 1>* body_scale, KinematicsWorkspace<T>& ws) {
+  detail::forward_kinematics<T, true>(model, q, ws, body_scale);
 }
 
 template <typename T>

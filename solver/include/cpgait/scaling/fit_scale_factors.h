@@ -4,7 +4,7 @@
 // fitted together as one nonlinear least-squares problem (Ceres):
 //   min  sum_f sum_m w_m |p_m(q_f; s) + R_B(q_f; s) d_m - x_m,f|^2
 //      + offset_prior^2 sum_m |d_m|^2 + scale_prior_m^2 sum_b |s_b - 1|^2
-// where the model is placed as scale_model scales it (forward_kinematics with body scales) and each
+// where the model is placed as scale_model scales it (scaled_forward_kinematics) and each
 // marker sits at s_b (.) location_m + d_m in its body. The model is then scaled with the factors
 // (scale_model) and its markers placed on the static trial (place_markers), as OpenSim's MarkerPlacer
 // does after its ModelScaler. A body without markers of its own on the static trial takes its
