@@ -22,25 +22,25 @@ class Bytes {
   C3dFile::Processor processor = C3dFile::Processor::kIntel;
 
   std::size_t size() const { return data_.size(); }
-  [[noreturn]] void fail(std::size_t offset, const std::string& field, const std::string& message) const {
-    throw InputError(name_, 0, field, "byte " + std::to_string(offset) + ": " + message);
+  [[noreturn]] void fail(std::size_t offset, std::string_view field, const std::string& message) const {
+    throw InputError(name_, 0, std::string(field), "byte " + std::to_string(offset) + ": " + message);
   }
-  void need(std::size_t offset, std::size_t n, const std::string& field) const {
+  void need(std::size_t offset, std::size_t n, std::string_view field) const {
     if (offset > data_.size() || n > data_.size() - offset)
       fail(offset, field, "the file ends at byte " + std::to_string(data_.size()) + ", " + std::to_string(n) + " more bytes expected");
   }
-  std::uint8_t u8(std::size_t at, const std::string& field) const {
+  std::uint8_t u8(std::size_t at, std::string_view field) const {
     need(at, 1, field);
     return static_cast<std::uint8_t>(data_[at]);
   }
-  std::int8_t i8(std::size_t at, const std::string& field) const { return static_cast<std::int8_t>(u8(at, field)); }
-  std::uint16_t u16(std::size_t at, const std::string& field) const {
+  std::int8_t i8(std::size_t at, std::string_view field) const { return static_cast<std::int8_t>(u8(at, field)); }
+  std::uint16_t u16(std::size_t at, std::string_view field) const {
     need(at, 2, field);
     const auto b0 = static_cast<std::uint8_t>(data_[at]), b1 = static_cast<std::uint8_t>(data_[at + 1]);
     return processor == C3dFile::Processor::kMips ? static_cast<std::uint16_t>(b0 << 8 | b1) : static_cast<std::uint16_t>(b1 << 8 | b0);
   }
-  std::int16_t i16(std::size_t at, const std::string& field) const { return static_cast<std::int16_t>(u16(at, field)); }
-  float f32(std::size_t at, const std::string& field) const {
+  std::int16_t i16(std::size_t at, std::string_view field) const { return static_cast<std::int16_t>(u16(at, field)); }
+  float f32(std::size_t at, std::string_view field) const {
     need(at, 4, field);
     std::uint8_t b[4];
     std::memcpy(b, data_.data() + at, 4);
@@ -59,7 +59,7 @@ class Bytes {
     std::memcpy(&f, &w, 4);
     return processor == C3dFile::Processor::kDec ? f / 4.0f : f;
   }
-  std::string text(std::size_t at, std::size_t n, const std::string& field) const {
+  std::string text(std::size_t at, std::size_t n, std::string_view field) const {
     need(at, n, field);
     return std::string(data_.substr(at, n));
   }
@@ -226,7 +226,7 @@ C3dFile parse_c3d(std::string_view data, const std::string& name) {
   MarkerTrial& m = f.markers;
   m.marker_names = labels(f, "POINT", "LABELS", points);
   for (int k = 0; k < points; ++k)
-    if (m.marker_names[static_cast<std::size_t>(k)].empty()) m.marker_names[static_cast<std::size_t>(k)] = "M" + std::to_string(k + 1);
+    if (m.marker_names[static_cast<std::size_t>(k)].empty()) m.marker_names[static_cast<std::size_t>(k)].append("M").append(std::to_string(k + 1));
   const C3dParameter* units = f.parameter("POINT", "UNITS");
   m.units_in_file = units && !units->strings.empty() && !text::trim(units->strings[0]).empty() ? std::string(text::trim(units->strings[0])) : "mm";
   double metres;

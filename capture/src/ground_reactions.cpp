@@ -139,8 +139,8 @@ GroundReactions ground_reactions(const C3dFile& f, const Eigen::Matrix3d& to_ope
         values.block<1, 3>(s, c0 + 6) = (to_opensim * pf.free_moment_Nm.col(s)).transpose();
       }
   }
-  g.grf = make_storage(f.name, labels, time, values, false);
-  g.grf.extra_header = {"Ground reactions from " + f.name + "'s force plates: forces (N) and torques (N m) on the subject, points (m)."};
+  g.grf = make_storage("ground reactions", labels, time, values, false);
+  g.grf.extra_header = {"From the force plates: forces (N) and torques (N m) on the subject, points (m)."};
   if (g.negated_any) g.warnings.push_back("some plates' channels give the force on the plate: negated to the force on the subject");
   return g;
 }

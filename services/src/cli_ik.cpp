@@ -119,7 +119,8 @@ void add_convert_command(CLI::App& app) {
     std::printf("wrote %s (%d markers x %d frames at %g Hz, %zu gaps)\n", trc.c_str(), trial.num_markers(), trial.num_frames(),
                 trial.data_rate_hz, trial.gaps().size());
     for (const auto& e : file.events) std::printf("event %s %s at %.4f s\n", e.context.c_str(), e.label.c_str(), e.time_s);
-    const GroundReactions g = ground_reactions(file, to_opensim, c->grf);
+    GroundReactions g = ground_reactions(file, to_opensim, c->grf);
+    g.grf.name = stem + "_grf";
     print_warnings(g.warnings);
     if (g.loads.empty()) return;
     for (const auto& st : g.stances)

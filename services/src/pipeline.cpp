@@ -3,7 +3,9 @@
 #include <chrono>
 #include <filesystem>
 
+#include "cpgait/capture/c3d.h"
 #include "cpgait/capture/external_loads.h"
+#include "cpgait/capture/ground_reactions.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/marker_file.h"
 #include "cpgait/model/osim_reader.h"
@@ -36,7 +38,17 @@ class StageProgress : public Progress {
 
 // The trial's model (muscle lengths scaled from the generic model when given), its markers (unless
 // they come from footage) and its loads; every reader's error names the file, line and field.
-StageContext open_trial(const TrialInputs& in, const PipelineOptions& options, const std::string& out_dir) {
+// A C3D marker file with force plates and no GRF given: its plates are the trial's loads.
+std::optional<GroundReactions> c3d_ground_reactions(const TrialInputs& in) {
+  if (!in.grf.empty() || !in.loads.empty() || in.has_footage() || !looks_like_c3d(in.markers)) return std::nullopt;
+  const C3dFile file = parse_c3d(in.markers, in.markers_name);
+  GroundReactions g = ground_reactions(file, c3d_to_opensim(file, C3dVertical::kAuto));
+  if (g.loads.empty()) return std::nullopt;
+  return g;
+}
+
+StageContext open_trial(const TrialInputs& in, const PipelineOptions& options, const std::string& out_dir,
+                        std::optional<GroundReactions>* from_c3d = nullptr) {
   OsimReadOptions ro;
   ro.marker_set_file = in.marker_set_path;
   StageContext trial{in, out_dir, read_osim(in.model_path, ro).model, {}, nullptr, options.time_range_s, {}, {}, nullptr, {}};
@@ -46,6 +58,10 @@ StageContext open_trial(const TrialInputs& in, const PipelineOptions& options, c
     if (in.grf.empty()) throw InputError(in.loads_name, 0, "grf", "external loads were given without their GRF data (.mot)");
     if (in.loads.empty()) throw InputError(in.grf_name, 0, "loads", "GRF data were given without the ExternalLoads XML naming the bodies");
     trial.loads = std::make_unique<AppliedLoads>(trial.model, parse_external_loads(in.loads, in.loads_name), parse_storage(in.grf, in.grf_name));
+  } else if (auto g = c3d_ground_reactions(in)) {
+    trial.loads = std::make_unique<AppliedLoads>(
+        trial.model, parse_external_loads(external_loads_document(*g, in.name + "_grf.mot"), in.markers_name + " (force plates)"), g->grf);
+    if (from_c3d) *from_c3d = std::move(g);
   }
   return trial;
 }
@@ -96,7 +112,13 @@ void validate_inputs(const TrialInputs& in, const PipelineOptions& options) {
 PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& options, const std::string& out_dir,
                             PipelineObserver* observer) {
   ensure_directory(out_dir);
-  StageContext trial = open_trial(in, options, out_dir);
+  std::optional<GroundReactions> from_c3d;
+  StageContext trial = open_trial(in, options, out_dir, &from_c3d);
+  if (from_c3d) {  // the loads the C3D's plates gave, as `cpgait convert` writes them
+    from_c3d->grf.name = in.name + "_grf";
+    trial.write(from_c3d->grf, "_grf.mot");
+    trial.write_text(external_loads_document(*from_c3d, in.name + "_grf.mot"), "_grf.xml");
+  }
   PipelineResult result;
   for (const Stage* stage : options.table()) {
     if (!options.runs(*stage, in)) continue;

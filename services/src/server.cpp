@@ -490,7 +490,10 @@ class Api {
       return send_error(res, 409, "not_ready", "inverse kinematics is not done yet", "stage");
     const fs::path dir = jobs_.trial_dir(id), inputs = dir / "inputs";
     const std::string model_id = t->options.value("model", "");
-    const bool have_grf = fs::exists(inputs / "grf.mot");
+    // Ground reactions: uploaded, or derived from a C3D's force plates by the pipeline.
+    fs::path grf = inputs / "grf.mot", loads = inputs / "loads.xml";
+    if (!fs::exists(grf)) grf = result_dir(*t) / (t->name + "_grf.mot"), loads = result_dir(*t) / (t->name + "_grf.xml");
+    const bool have_grf = fs::exists(grf) && fs::exists(loads);
     // Footage trials: the markers are the capture stage's TRC, on the tag corners it added to the model.
     const bool footage = fs::is_directory(inputs / "videos");
     const std::string markers = footage ? (result_dir(*t) / (t->name + ".trc")).string() : (inputs / "markers.trc").string();
@@ -505,8 +508,7 @@ class Api {
       send_json(res, 200,
                 trial_kinematics_json(model, marker_set,
                                       (result_dir(*t) / (t->name + "_ik.mot")).string(), text::read_file(markers),
-                                      have_grf ? text::read_file((inputs / "grf.mot").string()) : "",
-                                      have_grf ? text::read_file((inputs / "loads.xml").string()) : ""));
+                                      have_grf ? text::read_file(grf.string()) : "", have_grf ? text::read_file(loads.string()) : ""));
     } catch (const std::exception& e) {
       send_error(res, 409, "not_ready", std::string("kinematics not available: ") + e.what());
     }

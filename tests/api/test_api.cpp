@@ -450,6 +450,50 @@ TEST(Api, C3dMarkersUploadRunsLikeItsTrc) {
 }
 
 // The stage table and the options schema, published; a trial's stages and job.json follow them.
+// Issue 21, acceptance 3 through the service: subject01's walk and ground reactions as a C3D with two
+// force plates, uploaded alone (no GRF parts): ID runs on the plates' loads, and the served files are
+// `cpgait run`'s on the same C3D (which equal its run on `cpgait convert`'s files: C3dPipeline test).
+TEST(ApiReference, C3dWithForcePlatesSuppliesTheGrf) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot"})
+    REQUIRE_REFERENCE(pl + f);
+  const std::string dir = cpgait::refdata::temp_dir("api_c3d_plates");
+  const cpgait::Storage grf = cpgait::read_storage(pl + "subject01_walk1_grf.mot");
+  const std::string c3d = cpgait::testing::format_c3d_z_up_with_plates(cpgait::read_trc(pl + "subject01_walk1.trc"), grf.data, grf.labels,
+                                                                      {"ground_force_", "1_ground_force_"}, 10);
+  { std::ofstream(dir + "/walk.c3d", std::ios::binary) << c3d; }
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{
+                                        {"model", slurp(pl + "OutputReference/subject01_simbody.osim"), "subject01_simbody.osim", ""}});
+  ASSERT_EQ(m->status, 201) << m->body;
+  const json options = {{"model", body(m)["id"]}, {"stages", {"ik", "id"}}};
+  auto t = c.Post("/api/v1/trials", trial_form(c3d, "walk.c3d", options));
+  ASSERT_EQ(t->status, 202) << t->body;
+  const std::string id = body(t)["id"];
+  ASSERT_EQ(wait_finished(c, id, 120), "done") << server.log();
+  const json trial = body(c.Get(("/api/v1/trials/" + id).c_str()));
+  for (const auto& s : trial["stages"])
+    if (s["name"] == "id") {
+      EXPECT_TRUE(s["summary"]["external_loads"].get<bool>()) << s.dump();
+    }
+  std::ofstream(dir + "/options.json") << json({{"stages", {"ik", "id"}}}).dump();
+  ASSERT_EQ(run_cli("run --model " + pl + "OutputReference/subject01_simbody.osim --markers " + dir + "/walk.c3d --options " + dir +
+                    "/options.json -o " + dir + "/cli"),
+            0);
+  for (const std::string suffix : {"_grf.mot", "_grf.xml", "_ik.mot", "_id.sto"}) {
+    auto f = c.Get(("/api/v1/trials/" + id + "/files/walk" + suffix).c_str());
+    ASSERT_EQ(f->status, 200) << suffix;
+    EXPECT_TRUE(f->body == slurp(dir + "/cli/walk" + suffix)) << suffix << " differs between the service and cpgait run";
+  }
+  // The review shows the plates' forces.
+  const json kin = body(c.Get(("/api/v1/trials/" + id + "/kinematics").c_str()));
+  std::size_t forces = 0;
+  for (const auto& frame : kin["frames"]) forces += frame["grf"].size();
+  EXPECT_GT(forces, 100u);
+  fs::remove_all(dir);
+}
+
 TEST(Api, PublishesItsStagesAndTheOptionsSchemaJobJsonFollows) {
   const std::string dir = cpgait::refdata::temp_dir("api_schema");
   ServerProcess server(dir + "/data");
