@@ -65,17 +65,16 @@ struct C3dWriter {
 };
 
 
-// A marker trial as an Intel float C3D in mm from a Z-up lab: OpenSim's (x, y, z) stored as (x, -z, y).
-inline std::string format_c3d_z_up(const MarkerTrial& t) {
-  const int points = t.num_markers(), frames = t.num_frames();
+// The header (Intel, float, mm) and the POINT group of a trial with `channels` analog channels at
+// `samples` a frame, its parameters in `parameter_blocks` blocks.
+inline void write_float_header_and_points(C3dWriter& w, const MarkerTrial& t, int channels, int samples, int parameter_blocks) {
+  const int points = t.num_markers();
   std::size_t label_width = 1;
   for (const auto& n : t.marker_names) label_width = std::max(label_width, n.size());
-  C3dWriter w;
   w.u8(2), w.u8(0x50);
-  w.i16(points), w.i16(0), w.i16(1), w.i16(frames), w.i16(0);
+  w.i16(points), w.i16(channels * samples), w.i16(1), w.i16(t.num_frames()), w.i16(0);
   w.f32(-1.0f);
-  const int parameter_blocks = 4, data_block = 2 + parameter_blocks;
-  w.i16(data_block), w.i16(0);
+  w.i16(2 + parameter_blocks), w.i16(samples);
   w.f32(static_cast<float>(t.data_rate_hz));
   w.pad();
   w.u8(1), w.u8(0x50), w.u8(parameter_blocks), w.u8(84);
@@ -87,6 +86,14 @@ inline std::string format_c3d_z_up(const MarkerTrial& t) {
   w.parameter(1, "LABELS", -1, {static_cast<int>(label_width), points}, [&] {
     for (const auto& n : t.marker_names) w.out += n + std::string(label_width - n.size(), ' ');
   });
+}
+
+// A marker trial as an Intel float C3D in mm from a Z-up lab: OpenSim's (x, y, z) stored as (x, -z, y).
+inline std::string format_c3d_z_up(const MarkerTrial& t) {
+  const int points = t.num_markers(), frames = t.num_frames();
+  const int parameter_blocks = 4, data_block = 2 + parameter_blocks;
+  C3dWriter w;
+  write_float_header_and_points(w, t, 0, 0, parameter_blocks);
   w.u8(0), w.u8(0);
   w.out.resize(static_cast<std::size_t>(data_block - 1) * 512, '\0');
   for (int f = 0; f < frames; ++f)
@@ -111,25 +118,9 @@ inline std::string format_c3d_z_up_with_plates(const MarkerTrial& t, const Eigen
       if (labels[i] == name) return static_cast<int>(i);
     return -1;
   };
-  std::size_t label_width = 1;
-  for (const auto& n : t.marker_names) label_width = std::max(label_width, n.size());
-  C3dWriter w;
-  w.u8(2), w.u8(0x50);
-  w.i16(points), w.i16(channels * samples), w.i16(1), w.i16(frames), w.i16(0);
-  w.f32(-1.0f);
   const int parameter_blocks = 6, data_block = 2 + parameter_blocks;
-  w.i16(data_block), w.i16(samples);
-  w.f32(static_cast<float>(t.data_rate_hz));
-  w.pad();
-  w.u8(1), w.u8(0x50), w.u8(parameter_blocks), w.u8(84);
-  w.group(1, "POINT");
-  w.parameter(1, "USED", 2, {}, [&] { w.i16(points); });
-  w.parameter(1, "SCALE", 4, {}, [&] { w.f32(-1.0f); });
-  w.parameter(1, "RATE", 4, {}, [&] { w.f32(static_cast<float>(t.data_rate_hz)); });
-  w.parameter(1, "UNITS", -1, {2}, [&] { w.out += "mm"; });
-  w.parameter(1, "LABELS", -1, {static_cast<int>(label_width), points}, [&] {
-    for (const auto& n : t.marker_names) w.out += n + std::string(label_width - n.size(), ' ');
-  });
+  C3dWriter w;
+  write_float_header_and_points(w, t, channels, samples, parameter_blocks);
   w.group(2, "ANALOG");
   w.parameter(2, "USED", 2, {}, [&] { w.i16(channels); });
   w.parameter(2, "RATE", 4, {}, [&] { w.f32(static_cast<float>(t.data_rate_hz * samples)); });

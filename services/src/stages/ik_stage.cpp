@@ -2,6 +2,7 @@
 #include "cpgait/capture/ik_setup.h"
 #include "cpgait/ik/inverse_kinematics.h"
 #include "products.h"
+#include "ik_tasks_field.h"
 #include "stage.h"
 
 namespace cpgait::services {
@@ -21,24 +22,10 @@ struct IkStageOptions {
         OptionFields<IkStageOptions>("Ceres, frame by frame, as OpenSim's IK tool.")
             .choice("bounds", &IkStageOptions::bounds, {"clamped", "all", "none"},
                     "which coordinates are held to their range: those marked clamped (as OpenSim), all with a range, or none")
-            .add({"tasks",
-                  {{"type", "object"},
-                   {"description",
-                    "IK task weights: {\"markers\": {name: weight | {\"weight\", \"apply\"}}, \"coordinates\": {...}} "
+            .add(ik_tasks_field(&IkStageOptions::tasks,
+                                "IK task weights: {\"markers\": {name: weight | {\"weight\", \"apply\"}}, \"coordinates\": {...}} "
                     "(capture/ik_setup.h; `cpgait run --ik-tasks` converts an OpenSim IKTaskSet); "
-                    "absent: every marker, weight 1"}},
-                  [](const nlohmann::json& v, IkStageOptions& o, const OptionPath& p) {
-                    if (!v.is_object()) p.fail("tasks", "expected an object of IK tasks");
-                    try {
-                      parse_ik_tasks_json(v.dump(), p.source);
-                    } catch (const InputError& e) {
-                      p.fail(e.field().empty() ? "tasks" : "tasks." + e.field(), e.message());
-                    }
-                    o.tasks = v;
-                  },
-                  [](const IkStageOptions& o, nlohmann::json& j) {
-                    if (o.tasks) j["tasks"] = *o.tasks;
-                  }});
+                    "absent: every marker, weight 1"));
     return f;
   }
 };

@@ -13,6 +13,7 @@
 #include "cpgait/scaling/model_scale_factors.h"
 #include "cpgait/scaling/place_markers.h"
 #include "cpgait/scaling/scale_model.h"
+#include "ik_tasks_field.h"
 #include "stage.h"
 
 namespace cpgait::services {
@@ -39,22 +40,9 @@ struct ScaleStageOptions {
                              NumberRange{0.0, {}, true})
             .boolean("symmetric", &ScaleStageOptions::symmetric, "automatic: left and right bodies (_r, _l) share their factors")
             .boolean("per_axis", &ScaleStageOptions::per_axis, "automatic: a factor per body axis instead of one per body")
-            .add({"tasks",
-                  {{"type", "object"},
-                   {"description", "marker weights on the static trial, as ik.tasks (absent: the setup's MarkerPlacer "
-                                   "tasks, or every marker weight 1)"}},
-                  [](const nlohmann::json& v, ScaleStageOptions& o, const OptionPath& p) {
-                    if (!v.is_object()) p.fail("tasks", "expected an object of IK tasks");
-                    try {
-                      parse_ik_tasks_json(v.dump(), p.source);
-                    } catch (const InputError& e) {
-                      p.fail(e.field().empty() ? "tasks" : "tasks." + e.field(), e.message());
-                    }
-                    o.tasks = v;
-                  },
-                  [](const ScaleStageOptions& o, nlohmann::json& j) {
-                    if (o.tasks) j["tasks"] = *o.tasks;
-                  }})
+            .add(ik_tasks_field(&ScaleStageOptions::tasks,
+                                "marker weights on the static trial, as ik.tasks (absent: the setup's MarkerPlacer "
+                                   "tasks, or every marker weight 1)"))
             .add({"factors",
                   {{"type", "object"},
                    {"additionalProperties", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}}},
