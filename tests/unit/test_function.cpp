@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "cpgait/model/function.h"
+#include "cpgait/capture/function.h"
 
 using namespace cpgait;
 

@@ -8,6 +8,7 @@
 
 #include "cpgait/fixtures/tag_footage.h"
 #include "cpgait/ik/inverse_kinematics.h"
+#include "cpgait/video/tag_markers.h"
 #include "cpgait/video/calibrate_cameras.h"
 #include "cpgait/video/capture_markers.h"
 #include "cpgait/video/register_tags.h"

@@ -13,6 +13,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/fixtures/tag_footage.h"
 #include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/video/tag_markers.h"
 #include "cpgait/video/capture_markers.h"
 #include "cpgait/video/tag_pose.h"
 #include "cpgait/video/triangulate.h"

@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "cpgait/capture/input_error.h"
-#include "cpgait/model/function.h"
+#include "cpgait/capture/function.h"
 #include "cpgait/video/tag_pose.h"
 
 namespace cpgait::video {

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <set>
 
+#include "cpgait/capture/body_xyz.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/json_input.h"
 #include "cpgait/capture/text_lines.h"
@@ -127,27 +128,6 @@ std::string format_marker_set_xml(const TagSet& set) {
   for (const TagMount& t : set.tags)
     if (!t.center_marker.empty()) marker(t.center_marker, t.body, t.position_in_body_m);
   out += "\t\t</objects>\n\t\t<groups />\n\t</MarkerSet>\n</OpenSimDocument>\n";
-  return out;
-}
-
-Model with_tag_markers(const Model& model, const TagSet& set, const std::string& set_name) {
-  Model out = model;
-  for (std::size_t i = 0; i < set.tags.size(); ++i) {
-    const TagMount& t = set.tags[i];
-    const int body = model.body_index(t.body);
-    if (body < 0)
-      throw InputError(set_name, 0, "tags[" + std::to_string(i) + "].body", "model " + model.name + " has no body " + t.body);
-    auto add = [&](const Marker& mk) {
-      const int existing = out.marker_index(mk.name);
-      if (existing >= 0) {
-        out.markers[static_cast<std::size_t>(existing)] = mk;
-      } else {
-        out.markers.push_back(mk);
-      }
-    };
-    for (int k = 0; k < 4; ++k) add(Marker{t.corner_markers[static_cast<std::size_t>(k)], body, t.corner_in_body_m(k), false});
-    if (!t.center_marker.empty()) add(Marker{t.center_marker, body, t.position_in_body_m, false});
-  }
   return out;
 }
 

@@ -1,5 +1,6 @@
 // Capture: AprilTag footage -> virtual markers (the tag corners), which the model gains as markers.
 // Runs first, and only when the trial is footage.
+#include "cpgait/video/tag_markers.h"
 #include "cpgait/video/capture_markers.h"
 #include "stage.h"
 

@@ -7,7 +7,7 @@
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
-#include "cpgait/model/function.h"
+#include "cpgait/capture/function.h"
 #include "cpgait/signal/lowpass.h"
 
 namespace cpgait {

@@ -41,10 +41,4 @@ std::vector<std::string> coordinate_names(const Model& model) {
   return names;
 }
 
-Eigen::Matrix3d rotation_from_body_xyz(const Eigen::Vector3d& a) {
-  return (Eigen::AngleAxisd(a.x(), Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(a.y(), Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(a.z(), Eigen::Vector3d::UnitZ()))
-      .toRotationMatrix();
-}
-
 }  // namespace cpgait

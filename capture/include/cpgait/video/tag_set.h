@@ -8,7 +8,6 @@
 #include <string>
 #include <vector>
 
-#include "cpgait/model/model.h"
 
 namespace cpgait::video {
 
@@ -45,9 +44,5 @@ std::string format_tag_set_json(const TagSet& set);
 // The tag corners as an OpenSim MarkerSet document (4.x), so the captured TRC runs through IK in
 // cpgait (`ik --marker-set`) or in OpenSim with the same model.
 std::string format_marker_set_xml(const TagSet& set);
-
-// A copy of `model` with the tag corners added as markers (replacing markers of the same name), so
-// IK runs on triangulated tag corners. Throws InputError for a body the model lacks.
-Model with_tag_markers(const Model& model, const TagSet& set, const std::string& set_name = "tag set");
 
 }  // namespace cpgait::video

@@ -13,7 +13,8 @@
 #include <string_view>
 #include <vector>
 
-#include "cpgait/model/function.h"
+#include "cpgait/capture/body_xyz.h"
+#include "cpgait/capture/function.h"
 
 namespace cpgait {
 
@@ -207,7 +208,5 @@ void apply_coordinate_couplers(const Model& model, T* q) {
 Eigen::MatrixXd coordinates_in_file_units(const Model& model, const Eigen::MatrixXd& q);
 std::vector<std::string> coordinate_names(const Model& model);
 
-// Rotation of OpenSim's `orientation` (body-fixed X-Y-Z Euler angles, rad).
-Eigen::Matrix3d rotation_from_body_xyz(const Eigen::Vector3d& angles_rad);
 
 }  // namespace cpgait

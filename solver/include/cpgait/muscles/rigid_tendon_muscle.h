@@ -1,7 +1,7 @@
 #pragma once
 // OpenSim's RigidTendonMuscle: an inextensible tendon, curves given as functions in the document
 // (OpenSim's defaults where absent), and no activation dynamics: its activation is its control.
-#include "cpgait/model/function.h"
+#include "cpgait/capture/function.h"
 #include "cpgait/model/model.h"
 #include "cpgait/muscles/fiber_state.h"
 

@@ -3,7 +3,7 @@
 // BothLegs and the running models use it: curves given as splines in the document (tendon force
 // against strain, active and passive force against normalised fibre length) and the iterative
 // isometric equilibrium OpenSim computes its fibre length with.
-#include "cpgait/model/function.h"
+#include "cpgait/capture/function.h"
 #include "cpgait/model/model.h"
 
 namespace cpgait::schutte1993 {

@@ -1,4 +1,4 @@
-#include "cpgait/model/function.h"
+#include "cpgait/capture/function.h"
 
 #include <algorithm>
 #include <stdexcept>

@@ -8,6 +8,7 @@
 
 #include "cpgait/capture/trc.h"
 #include "cpgait/model/model.h"
+#include "cpgait/video/tag_markers.h"
 #include "cpgait/video/tag_set.h"
 
 namespace cpgait::video {
