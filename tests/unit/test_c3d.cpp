@@ -10,6 +10,8 @@
 #include <functional>
 
 #include "cpgait/capture/c3d.h"
+#include "cpgait/capture/ground_reactions.h"
+#include "cpgait/capture/marker_file.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "c3d_writer.h"
@@ -239,14 +241,17 @@ TEST(C3d, DamagedFilesNameTheByteAndWhatWasExpected) {
   }
 }
 
-// Random damage to a synthetic file and to the first 64 KB of a vendor's: only InputError, never a
-// crash or another exception; every cut before the last block (where the data end) is refused.
+// Random damage to a synthetic file and to the first 64 KB of a vendor's (Qualisys: with force plates
+// and events): only InputError from the reader and the plates' conversion, never a crash or another
+// exception; every cut before the last block (where the data end) is refused.
 TEST(C3d, RandomDamageGivesInputErrorsOnly) {
   std::vector<std::string> originals = {synthetic_c3d(84, false), synthetic_c3d(85, true), synthetic_c3d(86, true)};
-  if (const std::string vicon = c3d_path("Vicon.c3d"); std::filesystem::exists(vicon)) {
-    originals.push_back(text::read_file(vicon));
-  } else {
-    std::printf("[ info ] not run: damage to a vendor file (%s absent)\n", vicon.c_str());
+  for (const char* vendor : {"Vicon.c3d", "Qualisys.c3d"}) {
+    if (const std::string path = c3d_path(vendor); std::filesystem::exists(path)) {
+      originals.push_back(text::read_file(path));
+    } else {
+      std::printf("[ info ] not run: damage to a vendor file (%s absent)\n", path.c_str());
+    }
   }
   std::mt19937 rng(11);
   int rounds = 0, refused = 0;
@@ -262,7 +267,8 @@ TEST(C3d, RandomDamageGivesInputErrorsOnly) {
           bad[std::uniform_int_distribution<std::size_t>(0, span - 1)(rng)] = static_cast<char>(std::uniform_int_distribution<int>(0, 255)(rng));
       }
       try {
-        parse_c3d(bad, "damaged.c3d");
+        const C3dFile f = parse_c3d(bad, "damaged.c3d");
+        ground_reactions(f, c3d_to_opensim(f, C3dVertical::kAuto));
         // The data end within the last 512-byte block (the rest is padding): a cut before it loses data.
         EXPECT_FALSE(kind == 0 && bad.size() + 512 <= original.size())
             << "a truncated file was accepted (" << bad.size() << " of " << original.size() << " bytes)";
