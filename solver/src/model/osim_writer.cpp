@@ -75,13 +75,6 @@ class Writer {
     throw InputError(m_.source, 0, field, message);
   }
 
-  template <typename Vec>
-  int index_of(const std::vector<Vec>& v, const std::string& name) const {
-    for (std::size_t i = 0; i < v.size(); ++i)
-      if (v[i].name == name) return static_cast<int>(i);
-    return -1;
-  }
-
   void write_bodies(const xml_node& root) {
     write_wrap_objects(root.child("Ground"));
     for (const auto& n : root.child("BodySet").child("objects").children("Body")) {
@@ -109,8 +102,8 @@ class Writer {
   void write_wrap_objects(const xml_node& body) {
     for (const auto& w : body.child("WrapObjectSet").child("objects").children()) {
       if (w.type() != pugi::node_element) continue;
-      const int i = index_of(m_.wrap_objects, w.attribute("name").value());
-      const int gi = index_of(g_.wrap_objects, w.attribute("name").value());
+      const int i = m_.wrap_object_index(w.attribute("name").value());
+      const int gi = g_.wrap_object_index(w.attribute("name").value());
       if (i < 0 || gi < 0) fail(w, "the model has no wrap object of this name");
       const WrapObject &o = m_.wrap_objects[i], &go = g_.wrap_objects[gi];
       if (o.pose.translation_m != go.pose.translation_m) set_child_text(w, "translation", vec3_text(o.pose.translation_m));
