@@ -7,8 +7,9 @@
 // where the model is placed as scale_model scales it (scaled_forward_kinematics) and each
 // marker sits at s_b (.) location_m + d_m in its body. The model is then scaled with the factors
 // (scale_model) and its markers placed on the static trial (place_markers), as OpenSim's MarkerPlacer
-// does after its ModelScaler. A body without markers of its own on the static trial takes its
-// parent's factors.
+// does after its ModelScaler; with motion trials the markers keep their fitted offsets instead (they
+// are told apart from the factors by the motion). A body without markers of its own on the static
+// trial takes its parent's factors.
 #include <Eigen/Core>
 #include <optional>
 #include <string>
@@ -52,7 +53,7 @@ struct ScaleFitSummary {
   double seconds = 0;
   double static_rms_generic_m = 0;  // the static frame's marker RMS with IK on the generic model
   double static_rms_fitted_m = 0;   // the same on the fitted factors, before markers are moved
-  double static_rms_placed_m = 0;   // and after the markers are placed (MarkerPlacer)
+  double static_rms_placed_m = 0;   // and with the final markers (placed, or the fitted offsets)
   std::vector<std::string> warnings;
   std::string BriefReport() const;
 };
