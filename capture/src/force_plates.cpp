@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/signal/lowpass.h"
 
 namespace cpgait {
 namespace {
@@ -93,7 +94,7 @@ std::vector<ForcePlate> read_force_plates(const C3dFile& f) {
   return plates;
 }
 
-PlateForces plate_forces(const C3dFile& f, const ForcePlate& p, const Eigen::Vector3d& up, double threshold_N) {
+PlateForces plate_forces(const C3dFile& f, const ForcePlate& p, const Eigen::Vector3d& up, double threshold_N, double lowpass_hz) {
   const Eigen::Index n = f.analog.values.rows();
   auto scale_of = [&](int channel, bool length) {
     const std::string u = static_cast<std::size_t>(channel) < f.analog.units.size() ? f.analog.units[static_cast<std::size_t>(channel)] : "";
@@ -132,6 +133,11 @@ PlateForces plate_forces(const C3dFile& f, const ForcePlate& p, const Eigen::Vec
     F.col(s) = p.rotation * force;
     M.col(s) = p.rotation * moment;
   }
+  if (lowpass_hz > 0 && n > 6 && f.analog.rate_hz > 0)
+    for (int k = 0; k < 3; ++k) {
+      F.row(k) = lowpass_butterworth3_zero_phase(F.row(k).transpose(), 1.0 / f.analog.rate_hz, lowpass_hz).transpose();
+      M.row(k) = lowpass_butterworth3_zero_phase(M.row(k).transpose(), 1.0 / f.analog.rate_hz, lowpass_hz).transpose();
+    }
   PlateForces out;
   // While loaded, the force on the subject points up; some vendors store the force on the plate.
   double vertical_sum = 0;

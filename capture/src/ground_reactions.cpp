@@ -60,7 +60,7 @@ GroundReactions ground_reactions(const C3dFile& f, const Eigen::Matrix3d& to_ope
   std::vector<Group> groups;
   std::vector<PlateForces> forces;
   for (const ForcePlate& p : plates) {
-    forces.push_back(plate_forces(f, p, up, o.threshold_N));
+    forces.push_back(plate_forces(f, p, up, o.threshold_N, o.lowpass_hz));
     const PlateForces& pf = forces.back();
     g.negated_any |= pf.negated;
     std::vector<Group> mine;

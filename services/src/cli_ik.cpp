@@ -96,6 +96,8 @@ void add_convert_command(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "z", "y"}))
       ->capture_default_str();
   convert->add_option("--threshold", c->grf.threshold_N, "vertical force (N) below which a plate is unloaded")->capture_default_str();
+  convert->add_option("--lowpass", c->grf.lowpass_hz, "low-pass the plates' forces and moments at this cutoff (Hz) before the COP; 0: none")
+      ->capture_default_str();
   convert->add_option("--plate-foot", c->plate_foot, "a plate's foot instead of the nearest heel marker's: N=r or N=l");
   convert->add_option("--right-body", c->grf.right_body, "the body the right foot's loads act on")->capture_default_str();
   convert->add_option("--left-body", c->grf.left_body, "the body the left foot's loads act on")->capture_default_str();

@@ -142,7 +142,7 @@ TEST(ForcePlates, EachTypeGivesTheWrenchItWasWrittenWith) {
 TEST(ForcePlates, GroundReactionsInOpenSimsFrameOnTheNearestFoot) {
   const C3dFile f = parse_c3d(plate_c3d(2, false), "plates.c3d");
   const Eigen::Matrix3d to_y_up = c3d_to_opensim(f, C3dVertical::kAuto);
-  const GroundReactions g = ground_reactions(f, to_y_up, {20.0, {}, "calcn_r", "calcn_l", 0.0});
+  const GroundReactions g = ground_reactions(f, to_y_up, {20.0, {}, "calcn_r", "calcn_l", 0.0, 0.0});
   ASSERT_EQ(g.stances.size(), 1u);
   EXPECT_EQ(g.stances[0].foot, 'r');
   ASSERT_EQ(g.loads.size(), 1u);
@@ -267,4 +267,31 @@ TEST(ForcePlatesReference, VendorFilesGiveStancesTheirEventsAgreeWith) {
   EXPECT_NEAR(left.end_s, 4.16, 0.03);     // LTO
   EXPECT_NEAR(right.begin_s, 4.05, 0.02);  // RHS
   EXPECT_NEAR(right.end_s, 4.65, 0.03);    // RTO
+}
+
+// Low-passed before the COP: the Qualisys plate's stance keeps its mean vertical force and loses its
+// sample-to-sample noise.
+TEST(ForcePlatesReference, LowPassKeepsTheStanceAndSmoothsIt) {
+  REQUIRE_REFERENCE(c3d_path("Qualisys.c3d"));
+  const C3dFile f = read_c3d(c3d_path("Qualisys.c3d"));
+  const ForcePlate plate = read_force_plates(f).at(0);
+  const PlateForces raw = plate_forces(f, plate, Eigen::Vector3d::UnitZ(), 20.0);
+  const PlateForces smooth = plate_forces(f, plate, Eigen::Vector3d::UnitZ(), 20.0, 15.0);
+  // Over the samples both call loaded (away from the edges, where the threshold cuts differently).
+  double mean_raw = 0, mean_smooth = 0, rough_raw = 0, rough_smooth = 0;
+  int n = 0;
+  for (Eigen::Index s = 1; s + 1 < raw.force_N.cols(); ++s) {
+    bool loaded = true;
+    for (Eigen::Index k = s - 1; k <= s + 1; ++k) loaded = loaded && raw.force_N(2, k) > 0 && smooth.force_N(2, k) > 0;
+    if (!loaded) continue;
+    mean_raw += raw.force_N(2, s), mean_smooth += smooth.force_N(2, s);
+    rough_raw += std::pow(raw.force_N(2, s - 1) - 2 * raw.force_N(2, s) + raw.force_N(2, s + 1), 2);
+    rough_smooth += std::pow(smooth.force_N(2, s - 1) - 2 * smooth.force_N(2, s) + smooth.force_N(2, s + 1), 2);
+    ++n;
+  }
+  ASSERT_GT(n, 500);
+  std::printf("Qualisys plate 1, %d loaded samples: mean vertical force %.1f N raw, %.1f N low-passed at 15 Hz; second-difference RMS "
+              "%.3f N -> %.5f N\n", n, mean_raw / n, mean_smooth / n, std::sqrt(rough_raw / n), std::sqrt(rough_smooth / n));
+  EXPECT_NEAR(mean_smooth, mean_raw, 0.01 * mean_raw);
+  EXPECT_LT(rough_smooth, rough_raw / 25.0);
 }

@@ -42,8 +42,11 @@ std::vector<ForcePlate> read_force_plates(const C3dFile& file);
 
 // `up`: the lab's vertical (unit, in the file's frame), used to tell the force on the subject (upward
 // while loaded) from the force on the plate, and to apply the threshold (N) on the vertical force
-// below which the plate is unloaded (force and moment 0, COP the centre).
-PlateForces plate_forces(const C3dFile& file, const ForcePlate& plate, const Eigen::Vector3d& up, double threshold_N);
+// below which the plate is unloaded (force and moment 0, COP the centre). lowpass_hz > 0: the force
+// and moment are low-passed first (zero-phase 3rd-order Butterworth, as OpenSim filters), then the COP
+// is computed from them.
+PlateForces plate_forces(const C3dFile& file, const ForcePlate& plate, const Eigen::Vector3d& up, double threshold_N,
+                         double lowpass_hz = 0);
 
 // The lab's vertical axis (0 x, 1 y, 2 z), upward positive: the plates' normal when the file has
 // plates, else POINT:Y_SCREEN's axis, else z.

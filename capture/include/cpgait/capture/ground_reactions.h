@@ -20,6 +20,7 @@ struct GroundReactionOptions {
   std::map<int, char> plate_foot;  // plate number (1-based) -> 'r' or 'l': every stance on it. Default: by heel markers.
   std::string right_body = "calcn_r", left_body = "calcn_l";  // the bodies the loads act on (OpenSim's gait models')
   double min_stance_s = 0.02;  // a shorter loaded run is noise, not a stance. Default 20 ms.
+  double lowpass_hz = 0;       // the plates' forces and moments low-passed before the COP (Hz); 0: as recorded. Default 0.
 };
 
 struct Stance {
