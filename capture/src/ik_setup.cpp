@@ -122,7 +122,7 @@ IkTaskSet parse_ik_tasks_json(const std::string& content, const std::string& nam
           t.value = v.value("value", 0.0);
           t.value_type = value_type_from(v.value("value_type", std::string("default_value")),
                                          [&](const std::string& m) {
-                                           throw InputError(name, 0, "coordinates." + coord + ".value_type", m);
+                                           throw InputError(name, 0, "coordinates." + t.name + ".value_type", m);
                                          });
         }
         tasks.coordinates.push_back(t);
