@@ -206,7 +206,20 @@ C3dFile parse_c3d(std::string_view data, const std::string& name) {
   if (const C3dParameter* s = f.parameter("TRIAL", "ACTUAL_START_FIELD"); s && s->numbers.size() == 2) {
     const C3dParameter* e = f.parameter("TRIAL", "ACTUAL_END_FIELD");
     if (e && e->numbers.size() == 2) {
-      auto word32 = [](const C3dParameter& p) { return static_cast<long>(static_cast<std::uint16_t>(p.numbers[0])) + 65536L * static_cast<std::uint16_t>(p.numbers[1]); };
+      // Two unsigned 16-bit words, which files store as signed ones too (-1 is 65535); anything else
+      // (a damaged file: found by fuzzing) is refused.
+      auto word32 = [&](const C3dParameter& p) {
+        long value = 0;
+        for (std::size_t k = 0; k < 2; ++k) {
+          const double w = p.numbers[k];
+          if (!(w >= -32768 && w <= 65535) || w != std::floor(w))
+            throw InputError(f.name, 0, "TRIAL:" + p.name, "expected two 16-bit words, got " + std::to_string(w));
+          value += (static_cast<long>(w) + (w < 0 ? 65536L : 0L)) << (16 * k);
+        }
+        if (value > std::numeric_limits<int>::max())
+          throw InputError(f.name, 0, "TRIAL:" + p.name, "frame " + std::to_string(value) + " is past what a file can hold");
+        return value;
+      };
       f.first_frame = static_cast<int>(word32(*s));
       last_frame = static_cast<int>(word32(*e));
     }

@@ -276,7 +276,7 @@ class Api {
     try {
       const json parsed = text.empty() ? json::object() : json::parse(text);
       if (!parsed.is_object()) return refuse(400, "malformed_json", "options: expected a JSON object", "options");
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse errors, and numbers past double's range
       return refuse(400, "malformed_json", std::string("options: ") + e.what(), "options");
     }
     std::optional<PipelineOptions> options;
