@@ -27,9 +27,8 @@ std::string output_path(const std::string& out_dir, const std::string& name) {
   return (fs::path(out_dir) / name).string();
 }
 
-void write_static_pose(const Model& model, const MarkerPlacement& p, const std::string& path) {
-  Storage s = make_storage("static pose", coordinate_names(model), {p.time_s},
-                           coordinates_in_file_units(model, p.static_pose.transpose()), true);
+void write_static_pose(const Model& model, const Eigen::VectorXd& pose, double time_s, const std::string& path) {
+  Storage s = make_storage("static pose", coordinate_names(model), {time_s}, coordinates_in_file_units(model, pose.transpose()), true);
   s.extra_header = {"", "Units are S.I. units (second, meters, Newtons, ...)", "Angles are in degrees.", ""};
   write_storage_atomic(s, path);
   std::printf("wrote %s\n", path.c_str());
@@ -83,7 +82,8 @@ void run_scale_setup(const std::string& setup_path, const ToolOverrides& o) {
     write_text_atomic(path, osim_document(p.model, wo));
     std::printf("wrote %s\n", path.c_str());
   }
-  if (!s.placer_output_motion_file.empty()) write_static_pose(p.model, p, output_path(out_dir, s.placer_output_motion_file));
+  if (!s.placer_output_motion_file.empty())
+    write_static_pose(p.model, p.static_pose, p.time_s, output_path(out_dir, s.placer_output_motion_file));
   if (!s.placer_output_marker_file.empty()) {
     const std::string path = output_path(out_dir, s.placer_output_marker_file);
     write_text_atomic(path, marker_set_document(p.model));
@@ -132,10 +132,8 @@ void run_automatic_scaling(const AutoScaleArgs& a) {
   const std::string scale_path = output_path(a.results, name + "_scaleSet_applied.xml");
   write_text_atomic(scale_path, scale_set_document(fit.model, fit.factors));
   std::printf("wrote %s\n", scale_path.c_str());
-  MarkerPlacement pose;
-  pose.static_pose = fit.static_pose;
-  pose.time_s = o.static_time_range_s ? o.static_time_range_s->first : trial.time_s.front();
-  write_static_pose(fit.model, pose, output_path(a.results, name + "_static_output.mot"));
+  write_static_pose(fit.model, fit.static_pose, o.static_time_range_s ? o.static_time_range_s->first : trial.time_s.front(),
+                    output_path(a.results, name + "_static_output.mot"));
 }
 
 void add_scale_command(CLI::App& app) {

@@ -11,15 +11,19 @@
 
 using namespace cpgait;
 
-static void BM_C3dParseVendorFiles(benchmark::State& state) {
+// The vendors' files present in ../shared; none: the benchmark is skipped.
+static std::vector<std::string> vendor_files(benchmark::State& state, std::initializer_list<const char*> names) {
   const std::string dir = std::string(CPGAIT_SHARED_DIR) + "/reference/c3d/";
   std::vector<std::string> files;
-  for (const char* f : {"Vicon.c3d", "Qualisys.c3d", "BTS.c3d"})
+  for (const char* f : names)
     if (std::filesystem::exists(dir + f)) files.push_back(text::read_file(dir + f));
-  if (files.empty()) {
-    state.SkipWithError("reference data absent: ../shared/reference/c3d");
-    return;
-  }
+  if (files.empty()) state.SkipWithError("reference data absent: ../shared/reference/c3d");
+  return files;
+}
+
+static void BM_C3dParseVendorFiles(benchmark::State& state) {
+  const std::vector<std::string> files = vendor_files(state, {"Vicon.c3d", "Qualisys.c3d", "BTS.c3d"});
+  if (files.empty()) return;
   std::size_t bytes = 0;
   for (auto _ : state)
     for (const std::string& f : files) {
@@ -33,14 +37,8 @@ BENCHMARK(BM_C3dParseVendorFiles)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 // The whole conversion of the files with force plates (Qualisys, BTS): parse, markers to OpenSim's
 // frame, plates to the GRF table and loads, both formatted as the files `cpgait convert` writes.
 static void BM_C3dConvertWithForcePlates(benchmark::State& state) {
-  const std::string dir = std::string(CPGAIT_SHARED_DIR) + "/reference/c3d/";
-  std::vector<std::string> files;
-  for (const char* f : {"Qualisys.c3d", "BTS.c3d"})
-    if (std::filesystem::exists(dir + f)) files.push_back(text::read_file(dir + f));
-  if (files.empty()) {
-    state.SkipWithError("reference data absent: ../shared/reference/c3d");
-    return;
-  }
+  const std::vector<std::string> files = vendor_files(state, {"Qualisys.c3d", "BTS.c3d"});
+  if (files.empty()) return;
   std::size_t bytes = 0;
   for (auto _ : state)
     for (const std::string& f : files) {

@@ -4,6 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
+#include <optional>
 
 #include "cpgait/capture/scale_setup.h"
 #include "cpgait/capture/trc.h"
@@ -16,17 +17,38 @@
 
 using namespace cpgait;
 
-static void BM_ScaleToolGait2392Subject01(benchmark::State& state) {
+namespace {
+
+// subject01's Scale setup, the generic gait2392 with the setup's marker set, and the static trial;
+// nullopt (the benchmark skipped) when ../shared lacks them.
+struct Subject01 {
+  ScaleSetup setup;
+  Model generic;
+  MarkerTrial trial;
+};
+std::optional<Subject01> load_subject01(benchmark::State& state) {
   const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/";
   if (!std::filesystem::exists(base + "pipeline/subject01_Setup_Scale.xml")) {
     state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
-    return;
+    return std::nullopt;
   }
-  const ScaleSetup setup = read_scale_setup(base + "pipeline/subject01_Setup_Scale.xml");
+  Subject01 s;
+  s.setup = read_scale_setup(base + "pipeline/subject01_Setup_Scale.xml");
   OsimReadOptions o;
-  o.marker_set_file = base + "pipeline/" + setup.marker_set_file;
-  const Model generic = read_osim(base + "model/gait2392_simbody.osim", o).model;
-  const MarkerTrial trial = read_trc(base + "pipeline/" + setup.marker_file);
+  o.marker_set_file = base + "pipeline/" + s.setup.marker_set_file;
+  s.generic = read_osim(base + "model/gait2392_simbody.osim", o).model;
+  s.trial = read_trc(base + "pipeline/" + s.setup.marker_file);
+  return s;
+}
+
+}  // namespace
+
+static void BM_ScaleToolGait2392Subject01(benchmark::State& state) {
+  const auto loaded = load_subject01(state);
+  if (!loaded) return;
+  const ScaleSetup& setup = loaded->setup;
+  const Model& generic = loaded->generic;
+  const MarkerTrial& trial = loaded->trial;
   const bool write = state.range(0) != 0;
   int models = 0;
   for (auto _ : state) {
@@ -45,16 +67,11 @@ BENCHMARK(BM_ScaleToolGait2392Subject01)->Arg(0)->Arg(1)->Unit(benchmark::kMilli
 // Automatic scaling (no measurement set) on the same static trial, with the setup's placer weights:
 // the factors, offsets and pose fitted, the model scaled and its markers placed.
 static void BM_ScaleFitGait2392Subject01(benchmark::State& state) {
-  const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/";
-  if (!std::filesystem::exists(base + "pipeline/subject01_Setup_Scale.xml")) {
-    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
-    return;
-  }
-  const ScaleSetup setup = read_scale_setup(base + "pipeline/subject01_Setup_Scale.xml");
-  OsimReadOptions o;
-  o.marker_set_file = base + "pipeline/" + setup.marker_set_file;
-  const Model generic = read_osim(base + "model/gait2392_simbody.osim", o).model;
-  const MarkerTrial trial = read_trc(base + "pipeline/" + setup.marker_file);
+  const auto loaded = load_subject01(state);
+  if (!loaded) return;
+  const ScaleSetup& setup = loaded->setup;
+  const Model& generic = loaded->generic;
+  const MarkerTrial& trial = loaded->trial;
   ScaleFitOptions fo;
   fo.static_time_range_s = setup.placer_time_range_s;
   fo.subject_mass_kg = setup.mass_kg;
