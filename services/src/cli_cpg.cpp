@@ -84,7 +84,7 @@ void add_cpg_fit_command(CLI::App& cpg) {
     int cycles = 0;
     const double cycle_s = mean_cycle_duration(time, starts, &cycles);
     const CpgFitResult r = fit_cpg(cycle, cycle_s, names, f->o);
-    write_text_atomic(f->out, r.model.to_json().dump(2) + "\n");
+    write_text_atomic(f->out, json_text(r.model.to_json(), 2) + "\n");
     const std::string stem = (fs::path(f->out).parent_path() / fs::path(f->out).stem()).string();
     std::vector<double> phase_time;
     for (int k = 0; k < cycle.rows(); ++k) phase_time.push_back(cycle_s * k / static_cast<double>(cycle.rows()));
@@ -193,7 +193,7 @@ void run_gait(const GaitArgs& g) {
   write_storage_atomic(reproduced_gait_motion_table(model, r), g.out + "_gait.mot");
   write_storage_atomic(reproduced_gait_residual_table(r), g.out + "_gait_residuals.sto");
   write_storage_atomic(reproduced_gait_contact_table(r), g.out + "_gait_contact_forces.sto");
-  write_text_atomic(g.out + "_gait.json", reproduced_gait_metrics(model, r).dump(2) + "\n");
+  write_text_atomic(g.out + "_gait.json", json_text(reproduced_gait_metrics(model, r), 2) + "\n");
   std::printf("%s\nwrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", r.BriefReport().c_str(), g.out.c_str());
 }
 

@@ -47,7 +47,7 @@ void add_model_commands(CLI::App& app) {
     }
     j["warnings"] = r.warnings;
     if (const std::string w = unscaled_muscles_warning(m); !w.empty()) j["warnings"].push_back(w);
-    std::printf("%s\n", j.dump(2).c_str());
+    std::printf("%s\n", json_text(j, 2).c_str());
   });
 
   auto* synth = app.add_subcommand("synth",

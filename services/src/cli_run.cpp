@@ -8,6 +8,7 @@
 #include "cpgait/capture/ik_setup.h"
 #include "cpgait/video/capture_markers.h"
 #include "pipeline.h"
+#include "output_files.h"
 
 namespace cpgait::services {
 namespace fs = std::filesystem;
@@ -17,7 +18,7 @@ namespace {
 class PrintingObserver : public PipelineObserver {
  public:
   void stage_finished(const std::string& stage, double seconds, const nlohmann::json& summary) override {
-    std::printf("%-3s done in %.3f s: %s\n", stage.c_str(), seconds, summary.dump().c_str());
+    std::printf("%-3s done in %.3f s: %s\n", stage.c_str(), seconds, json_text(summary).c_str());
   }
 };
 
@@ -138,7 +139,7 @@ void add_run_command(CLI::App& app) {
                 "print the options document's JSON Schema (every stage's fields, types, defaults, units) and exit");
   run->callback([a] {
     if (a->print_schema) {
-      std::printf("%s\n", pipeline_options_schema().dump(2).c_str());
+      std::printf("%s\n", json_text(pipeline_options_schema(), 2).c_str());
       return;
     }
     if (a->out.empty()) throw CLI::RequiredError("--output");

@@ -2,12 +2,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "commands.h"
 #include "cpgait/capture/input_error.h"
-#include "cpgait/video/calibrate_cameras.h"
-#include "cpgait/video/capture_markers.h"
+#include "cpgait/video/footage.h"
 #include "cpgait/video/register_tags.h"
 #include "cpgait/model/osim_reader.h"
 #include "output_files.h"
@@ -50,17 +48,14 @@ void add_detect_command(CLI::App& app) {
   detect->add_option("--family", d->o.family, "tag family")->check(CLI::IsMember({"tag36h11", "tagStandard41h12"}))->capture_default_str();
   add_detector_options(detect, d->o);
   detect->callback([d] {
-    const video::TagDetector detector(d->o);
     nlohmann::json out = nlohmann::json::array();
     for (const std::string& path : d->images) {
-      if (!fs::exists(path)) throw InputError(path, 0, "images", "file not found");
-      const cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
-      if (img.empty()) throw InputError(path, 0, "images", "not a readable image");
+      const video::ImageDetections image = video::footage().detect_image_file(path, d->o);
       nlohmann::json dets = nlohmann::json::array();
-      for (const auto& t : detector.detect(img)) dets.push_back(detection_json(t));
-      out.push_back({{"image", path}, {"width", img.cols}, {"height", img.rows}, {"family", d->o.family}, {"detections", dets}});
+      for (const auto& t : image.tags) dets.push_back(detection_json(t));
+      out.push_back({{"image", path}, {"width", image.width_px}, {"height", image.height_px}, {"family", d->o.family}, {"detections", dets}});
     }
-    std::printf("%s\n", out.dump(2).c_str());
+    std::printf("%s\n", json_text(out, 2).c_str());
   });
 }
 
@@ -99,11 +94,11 @@ void add_calibrate_command(CLI::App& app) {
       videos.emplace_back(static_cast<int>(names.size()), path);
       names.push_back(name);
     }
-    const std::vector<video::CameraFootage> footage = video::detect_videos(videos, c->det, video::TagTrackerOptions{}, 30.0);
+    const std::vector<video::CameraFootage> footage = video::footage().detect_videos(videos, c->det, video::TagTrackerOptions{}, 30.0, 0, nullptr);
     c->o.world_from_reference_board.linear() =
         rotation_from_body_xyz(Eigen::Vector3d(c->xyz_deg[0], c->xyz_deg[1], c->xyz_deg[2]) * (M_PI / 180));
     c->o.world_from_reference_board.translation() = Eigen::Vector3d(c->position[0], c->position[1], c->position[2]);
-    const video::CalibrationResult r = video::calibrate_cameras(board, footage, names, c->o);
+    const video::CalibrationResult r = video::footage().calibrate_cameras(board, footage, names, c->o);
     write_text_atomic(c->out, video::format_calibration_json(r.rig));
     std::printf("%s\nwrote %s\n", r.summary.BriefReport().c_str(), c->out.c_str());
   });
@@ -128,7 +123,7 @@ void add_register_tags_command(CLI::App& app) {
   reg->callback([g] {
     const video::CameraRig rig = video::read_calibration(g->calibration);
     const video::TagSet tags = video::read_tag_set(g->tags);
-    const video::CaptureResult r = video::capture_markers(rig, tags, g->videos);
+    const video::CaptureResult r = video::footage().capture_markers(rig, tags, g->videos, {}, nullptr);
     video::TagRegistrationSummary s;
     const video::TagSet out = video::register_tag_set(read_osim(g->model).model, tags, r.markers, {}, &s);
     write_text_atomic(g->out, video::format_tag_set_json(out));
@@ -166,7 +161,7 @@ void add_capture_command(CLI::App& app) {
     const video::CameraRig rig = video::read_calibration(k->calibration);
     const video::TagSet tags = video::read_tag_set(k->tags);
     k->o.sync = k->sync == "time" ? video::CaptureOptions::Sync::kTime : video::CaptureOptions::Sync::kIndex;
-    video::CaptureResult r = video::capture_markers(rig, tags, k->videos, k->o);
+    video::CaptureResult r = video::footage().capture_markers(rig, tags, k->videos, k->o, nullptr);
     r.markers.name = fs::path(k->out).filename().string();
     const std::string stem = (fs::path(k->out).parent_path() / fs::path(k->out).stem()).string();
     if (!fs::path(k->out).parent_path().empty()) ensure_directory(fs::path(k->out).parent_path().string());

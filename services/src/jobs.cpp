@@ -7,6 +7,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "pipeline.h"
+#include "output_files.h"
 
 namespace cpgait::services {
 namespace fs = std::filesystem;
@@ -17,7 +18,7 @@ void log_line(const json& fields) {
   j["ts"] = now_iso8601();
   static std::mutex m;
   std::lock_guard lock(m);
-  std::printf("%s\n", j.dump().c_str());
+  std::printf("%s\n", json_text(j).c_str());
   std::fflush(stdout);
 }
 

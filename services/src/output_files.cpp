@@ -35,4 +35,8 @@ void write_storage_atomic(const Storage& table, const std::string& path) {
   write_text_atomic(path, format_storage(table));
 }
 
+std::string json_text(const nlohmann::json& j, int indent) {
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 }  // namespace cpgait::services

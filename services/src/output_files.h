@@ -3,6 +3,8 @@
 // reader never sees half a file.
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "cpgait/capture/storage.h"
 
 namespace cpgait::services {
@@ -11,5 +13,8 @@ void write_text_atomic(const std::string& path, const std::string& content);
 void write_storage_atomic(const Storage& table, const std::string& path);
 // Creates the folder (and parents); throws with the path on failure.
 void ensure_directory(const std::string& dir);
+// JSON text of `j`. Strings from users' files (labels, names, error messages) may hold bytes that are
+// not UTF-8; they are replaced by U+FFFD instead of throwing.
+std::string json_text(const nlohmann::json& j, int indent = -1);
 
 }  // namespace cpgait::services

@@ -136,7 +136,7 @@ PipelineResult run_pipeline(const TrialInputs& in, const PipelineOptions& option
   PipelineOptions recorded = options;
   for (const auto& [stage, values] : trial.recorded_options)
     for (const auto& [key, value] : values.items()) recorded.set_stage_option(stage, key, value, "job.json");
-  write_text_atomic((fs::path(out_dir) / "job.json").string(), recorded.to_json().dump(2) + "\n");
+  write_text_atomic((fs::path(out_dir) / "job.json").string(), json_text(recorded.to_json(), 2) + "\n");
   result.files = std::move(trial.files);
   result.files.push_back("job.json");
   return result;

@@ -4,6 +4,7 @@
 
 #include "cpgait/capture/json_input.h"
 #include "pipeline.h"
+#include "output_files.h"
 
 namespace cpgait::services {
 using nlohmann::json;
@@ -32,7 +33,7 @@ void read_stages(const json& v, PipelineOptions& o, const OptionPath& p) {
   o.stages.clear();
   for (const auto& s : v) {
     if (!s.is_string() || std::find(known.begin(), known.end(), s.get<std::string>()) == known.end())
-      p.fail("stages", "unknown stage " + s.dump() + " (stages: " + list + ")");
+      p.fail("stages", "unknown stage " + json_text(s) + " (stages: " + list + ")");
     o.stages.push_back(s.get<std::string>());
   }
   for (const std::string& name : o.stages)

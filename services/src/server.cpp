@@ -30,7 +30,7 @@ void on_signal(int) {
 
 void send_json(httplib::Response& res, int status, const json& body) {
   res.status = status;
-  res.set_content(body.dump(), "application/json");
+  res.set_content(json_text(body), "application/json");
 }
 
 void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message,
@@ -413,7 +413,7 @@ class Api {
     res.set_header("Cache-Control", "no-cache");
     res.set_chunked_content_provider("text/event-stream", [this, id, after = 0L, sent_snapshot = false](size_t, httplib::DataSink& sink) mutable {
       auto send = [&](const char* event, const json& data) {
-        const std::string msg = std::string("event: ") + event + "\ndata: " + data.dump() + "\n\n";
+        const std::string msg = std::string("event: ") + event + "\ndata: " + json_text(data) + "\n\n";
         return sink.write(msg.data(), msg.size());
       };
       auto finished = [](const std::string& s) { return s == "done" || s == "failed" || s == "cancelled"; };
@@ -526,19 +526,60 @@ class Api {
 
 thread_local std::chrono::steady_clock::time_point t_request_start;
 
-}  // namespace
 
-int serve(const ServerOptions& o) {
-  ensure_directory((fs::path(o.data_dir) / "trials").string());
-  ensure_directory((fs::path(o.data_dir) / "models").string());
-  Store store((fs::path(o.data_dir) / "cpgait.sqlite").string());
-  EventHub events;
-  Metrics metrics;
-  JobRunner jobs(store, events, metrics, o.data_dir, o.workers);
+// The service without its socket: the store, the job runner (not started) and an httplib server
+// with the API installed. serve() listens with it; InProcessServer feeds it requests directly.
+class HttpServer : public httplib::Server {
+ public:
+  using httplib::Server::process_request;
+};
+
+struct ServiceCore {
+  explicit ServiceCore(const ServerOptions& o)
+      : o(o),
+        store(prepare_data_dir(o.data_dir)),
+        jobs(store, events, metrics, o.data_dir, o.workers),
+        api(o, store, events, metrics, jobs) {
+    register_builtin_model();
+    server.new_task_queue = [] { return new httplib::ThreadPool(64); };
+    server.set_payload_max_length(o.max_upload_bytes);
+    server.set_read_timeout(o.read_timeout_s, 0);
+    server.set_write_timeout(o.read_timeout_s, 0);
+    server.set_pre_routing_handler([this](const httplib::Request&, httplib::Response&) {
+      t_request_start = std::chrono::steady_clock::now();
+      std::lock_guard lock(metrics.mutex);
+      metrics.requests++;
+      return httplib::Server::HandlerResponse::Unhandled;
+    });
+    // Every error leaves as JSON, including httplib's own (413 too large, 400 bad request, 404).
+    server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+      if (!res.body.empty()) return;
+      const char* code = res.status == 413 ? "payload_too_large" : res.status == 404 ? "not_found" : "http_error";
+      const std::string message = res.status == 413 ? "upload is larger than the server accepts"
+                                  : "HTTP error " + std::to_string(res.status);
+      send_error(res, res.status, code, message);
+    });
+    server.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+      try {
+        std::rethrow_exception(ep);
+      } catch (const std::exception& e) {
+        send_error(res, 500, "internal_error", e.what());
+      }
+    });
+    api.install(server);
+  }
+
+  // The folders the store and the jobs write into; returns the store's database path.
+  static std::string prepare_data_dir(const std::string& data_dir) {
+    ensure_directory((fs::path(data_dir) / "trials").string());
+    ensure_directory((fs::path(data_dir) / "models").string());
+    return (fs::path(data_dir) / "cpgait.sqlite").string();
+  }
 
   // cpgait's own fixture model is always there, so a first upload needs no model upload.
-  const fs::path builtin = fs::path(CPGAIT_FIXTURES_DIR) / "models" / "walker.osim";
-  if (!store.model("walker") && fs::exists(builtin)) {
+  void register_builtin_model() {
+    const fs::path builtin = fs::path(CPGAIT_FIXTURES_DIR) / "models" / "walker.osim";
+    if (store.model("walker") || !fs::exists(builtin)) return;
     ensure_directory((fs::path(o.data_dir) / "models" / "walker").string());
     fs::copy_file(builtin, fs::path(o.data_dir) / "models" / "walker" / "model.osim", fs::copy_options::overwrite_existing);
     const OsimReadResult r = read_osim(builtin.string());
@@ -547,32 +588,37 @@ int serve(const ServerOptions& o) {
                          {"markers", r.model.markers.size()}, {"muscles", r.model.muscles.size()}, {"mass_kg", r.model.total_mass_kg()}}});
   }
 
-  httplib::Server server;
-  server.new_task_queue = [] { return new httplib::ThreadPool(64); };
-  server.set_payload_max_length(o.max_upload_bytes);
-  server.set_read_timeout(o.read_timeout_s, 0);
-  server.set_write_timeout(o.read_timeout_s, 0);
-  server.set_pre_routing_handler([&](const httplib::Request&, httplib::Response&) {
-    t_request_start = std::chrono::steady_clock::now();
-    std::lock_guard lock(metrics.mutex);
-    metrics.requests++;
-    return httplib::Server::HandlerResponse::Unhandled;
-  });
-  // Every error leaves as JSON, including httplib's own (413 too large, 400 bad request, 404).
-  server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
-    if (!res.body.empty()) return;
-    const char* code = res.status == 413 ? "payload_too_large" : res.status == 404 ? "not_found" : "http_error";
-    const std::string message = res.status == 413 ? "upload is larger than the server accepts"
-                                : "HTTP error " + std::to_string(res.status);
-    send_error(res, res.status, code, message);
-  });
-  server.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
-    try {
-      std::rethrow_exception(ep);
-    } catch (const std::exception& e) {
-      send_error(res, 500, "internal_error", e.what());
-    }
-  });
+  const ServerOptions& o;
+  Store store;
+  EventHub events;
+  Metrics metrics;
+  JobRunner jobs;
+  Api api;
+  HttpServer server;
+};
+
+}  // namespace
+
+struct InProcessServer::Impl {
+  explicit Impl(const ServerOptions& o) : options(o), core(options) {}
+  ServerOptions options;
+  ServiceCore core;
+};
+
+InProcessServer::InProcessServer(const ServerOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+InProcessServer::~InProcessServer() = default;
+
+std::string InProcessServer::handle(const std::string& raw_request) {
+  httplib::detail::BufferStream stream;
+  stream.write(raw_request.data(), raw_request.size());
+  bool closed = false;
+  impl_->core.server.process_request(stream, true, closed, nullptr);
+  return stream.get_buffer().substr(raw_request.size());
+}
+
+int serve(const ServerOptions& o) {
+  ServiceCore core(o);
+  httplib::Server& server = core.server;
   server.set_logger([](const httplib::Request& req, const httplib::Response& res) {
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_request_start).count();
     json line = {{"event", "request"}, {"method", req.method}, {"path", req.path}, {"status", res.status}, {"ms", ms}};
@@ -581,8 +627,6 @@ int serve(const ServerOptions& o) {
     if (std::regex_search(req.path, m, trial_re)) line["trial"] = m[1].str();
     log_line(line);
   });
-  Api api(o, store, events, metrics, jobs);
-  api.install(server);
 
   // httplib 0.11 listens with a backlog of 5, compiled into Debian's library: a burst of uploads
   // would see refused or retried connections. It hands us the listening socket before binding;
@@ -599,7 +643,7 @@ int serve(const ServerOptions& o) {
     std::fprintf(stderr, "error: cannot listen on %s:%d (in use?)\n", o.host.c_str(), o.port);
     return 1;
   }
-  jobs.start();
+  core.jobs.start();
   g_server = &server;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -608,7 +652,7 @@ int serve(const ServerOptions& o) {
   std::fflush(stdout);
   server.listen_after_bind();
   g_server = nullptr;
-  jobs.stop();
+  core.jobs.stop();
   return 0;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // `cpgait serve`: the REST API under /api/v1, /healthz, /metrics, and the dashboard at /.
 #include <cstddef>
+#include <memory>
 #include <string>
 
 namespace cpgait::services {
@@ -18,5 +19,18 @@ struct ServerOptions {
 
 // Runs until SIGINT/SIGTERM. Prints "listening on http://host:port" once bound.
 int serve(const ServerOptions& options);
+
+// The same service without a socket (for fuzzing the request handling): one raw HTTP request in,
+// the raw response out. Its job runner is not started, so accepted trials stay queued.
+class InProcessServer {
+ public:
+  explicit InProcessServer(const ServerOptions& options);
+  ~InProcessServer();
+  std::string handle(const std::string& raw_request);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace cpgait::services

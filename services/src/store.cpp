@@ -5,6 +5,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "output_files.h"
+
 namespace cpgait::services {
 using nlohmann::json;
 
@@ -116,12 +118,12 @@ void Store::insert_trial(const TrialRecord& t) {
   try {
     Statement(db_, "INSERT INTO trials (id, name, status, created_at, updated_at, options, error) VALUES (?,?,?,?,?,?,?)")
         .bind(1, t.id).bind(2, t.name).bind(3, t.status).bind(4, t.created_at).bind(5, t.updated_at)
-        .bind(6, t.options.dump()).bind(7, t.error.is_null() ? std::string() : t.error.dump()).step();
+        .bind(6, json_text(t.options)).bind(7, t.error.is_null() ? std::string() : json_text(t.error)).step();
     int position = 0;
     for (const auto& s : t.stages)
       Statement(db_, "INSERT INTO stages (trial_id, position, name, state, progress, seconds, summary) VALUES (?,?,?,?,?,?,?)")
           .bind(1, t.id).bind(2, position++).bind(3, s.name).bind(4, s.state).bind(5, s.progress).bind(6, s.seconds)
-          .bind(7, s.summary.dump()).step();
+          .bind(7, json_text(s.summary)).step();
     exec("COMMIT");
   } catch (...) {
     exec("ROLLBACK");
@@ -196,13 +198,13 @@ std::optional<TrialRecord> Store::claim_next() {
 void Store::set_status(const std::string& id, const std::string& status, const json& error) {
   std::lock_guard lock(mutex_);
   Statement(db_, "UPDATE trials SET status = ?, updated_at = ?, error = ? WHERE id = ?")
-      .bind(1, status).bind(2, now_iso8601()).bind(3, error.is_null() ? std::string() : error.dump()).bind(4, id).step();
+      .bind(1, status).bind(2, now_iso8601()).bind(3, error.is_null() ? std::string() : json_text(error)).bind(4, id).step();
 }
 
 void Store::set_stage(const std::string& id, const StageRecord& s) {
   std::lock_guard lock(mutex_);
   Statement(db_, "UPDATE stages SET state = ?, progress = ?, seconds = ?, summary = ? WHERE trial_id = ? AND name = ?")
-      .bind(1, s.state).bind(2, s.progress).bind(3, s.seconds).bind(4, s.summary.dump()).bind(5, id).bind(6, s.name).step();
+      .bind(1, s.state).bind(2, s.progress).bind(3, s.seconds).bind(4, json_text(s.summary)).bind(5, id).bind(6, s.name).step();
   Statement(db_, "UPDATE trials SET updated_at = ? WHERE id = ?").bind(1, now_iso8601()).bind(2, id).step();
 }
 
@@ -231,7 +233,7 @@ std::vector<std::string> Store::requeue_interrupted() {
 void Store::insert_model(const ModelRecord& m) {
   std::lock_guard lock(mutex_);
   Statement(db_, "INSERT OR REPLACE INTO models (id, name, created_at, warnings, summary) VALUES (?,?,?,?,?)")
-      .bind(1, m.id).bind(2, m.name).bind(3, m.created_at).bind(4, m.warnings.dump()).bind(5, m.summary.dump()).step();
+      .bind(1, m.id).bind(2, m.name).bind(3, m.created_at).bind(4, json_text(m.warnings)).bind(5, json_text(m.summary)).step();
 }
 
 std::optional<ModelRecord> Store::model(const std::string& id) {

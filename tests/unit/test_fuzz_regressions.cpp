@@ -5,25 +5,16 @@
 
 #include <filesystem>
 #include <map>
+#include <sstream>
 
-#include "c3d_writer.h"
 #include "cpgait/capture/text_lines.h"
-#include "cpgait/fixtures/synthetic_trial.h"
 #include "fuzz/fuzz_targets.h"
 #include "test_support.h"
 
 using namespace cpgait;
 
 TEST(FuzzRegressions, EveryKeptInputIsReadOrRefused) {
-  const MarkerTrial trial = fixtures::synthesize_trial(refdata::walker(), {}).markers;
-  const std::map<std::string, std::vector<std::string>> made = {
-      {"trc", {format_trc(trial, "mm"), "PathFileType\t4\n"}},
-      {"storage", {"x\nversion=1\nnRows=1\nnColumns=2\nendheader\ntime\ta\n0\t1\n", "endheader\n"}},
-      {"c3d", {cpgait::testing::format_c3d_z_up(trial), std::string(512, '\0')}},
-      {"osim", {text::read_file(refdata::fixture("models/walker.osim")), "<Model>"}},
-      {"external_loads", {"<ExternalLoads><objects><ExternalForce/></objects></ExternalLoads>"}},
-      {"ik_tasks_json", {R"({"markers": {"R.ASIS": 2}})", "{"}},
-      {"scale_setup", {"<OpenSimDocument><ScaleTool><mass>-5</mass></ScaleTool></OpenSimDocument>"}}};
+  const std::map<std::string, std::vector<std::string>> made = cpgait::testing::fuzz_made_inputs();
   const std::filesystem::path kept = std::filesystem::path(CPGAIT_SOURCE_DIR) / "tests/fuzz/regressions";
   int inputs = 0;
   for (const std::string& target : cpgait::testing::fuzz_target_names()) {
@@ -39,5 +30,15 @@ TEST(FuzzRegressions, EveryKeptInputIsReadOrRefused) {
       ++inputs;
     }
   }
-  EXPECT_GE(inputs, 12);
+  EXPECT_GE(inputs, 30);
+}
+
+// scripts/fuzz.sh builds the targets CMake lists; each must be one fuzz_one knows, with made inputs.
+TEST(FuzzRegressions, CMakeListsEveryTarget) {
+  std::vector<std::string> listed;
+  std::stringstream names(CPGAIT_FUZZ_TARGETS);
+  for (std::string name; std::getline(names, name, ',');) listed.push_back(name);
+  EXPECT_EQ(listed, cpgait::testing::fuzz_target_names());
+  const auto made = cpgait::testing::fuzz_made_inputs();
+  for (const std::string& target : listed) EXPECT_TRUE(made.count(target) && !made.at(target).empty()) << target;
 }

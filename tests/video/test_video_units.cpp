@@ -3,6 +3,10 @@
 // frame pairing and bad input.
 #include <gtest/gtest.h>
 
+#include <apriltag.h>
+#include <tag36h11.h>
+#include <tagStandard41h12.h>
+
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core/persistence.hpp>
@@ -13,6 +17,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/fixtures/tag_footage.h"
 #include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/video/tag_family.h"
 #include "cpgait/video/tag_markers.h"
 #include "cpgait/video/capture_markers.h"
 #include "cpgait/video/tag_pose.h"
@@ -110,6 +115,25 @@ video::TagDetectorOptions full_resolution() {
 }
 
 }  // namespace
+
+// The families' geometry is known without loading the AprilTag library; it must be the library's.
+TEST(TagFamily, TableMatchesTheAprilTagLibrary) {
+  struct Family {
+    const char* name;
+    apriltag_family_t* (*create)();
+    void (*destroy)(apriltag_family_t*);
+  };
+  for (const Family& f : {Family{"tag36h11", tag36h11_create, tag36h11_destroy},
+                          Family{"tagStandard41h12", tagStandard41h12_create, tagStandard41h12_destroy}}) {
+    apriltag_family_t* lib = f.create();
+    const video::TagFamilyInfo ours = video::tag_family_info(f.name);
+    EXPECT_EQ(ours.total_width, lib->total_width) << f.name;
+    EXPECT_EQ(ours.width_at_border, lib->width_at_border) << f.name;
+    EXPECT_EQ(ours.num_codes, static_cast<int>(lib->ncodes)) << f.name;
+    f.destroy(lib);
+  }
+  EXPECT_THROW(video::tag_family_info("tag16h5"), std::invalid_argument);
+}
 
 TEST(Camera, ProjectionAndUndistortionInvertEachOther) {
   const video::Camera cam = fixtures::lab_rig()[1];

@@ -13,16 +13,6 @@
 
 namespace cpgait::video {
 
-std::string CalibrationSummary::BriefReport() const {
-  std::ostringstream s;
-  s << "calibration: " << cameras.size() << " cameras, " << board_poses << " board poses, " << observations
-    << " corner observations; reprojection RMS " << rms_px << " px (";
-  for (std::size_t i = 0; i < cameras.size(); ++i)
-    s << (i ? ", " : "") << cameras[i].name << " " << cameras[i].rms_px << " px from " << cameras[i].views << " views";
-  s << "); " << iterations << " iterations, " << seconds << " s";
-  return s.str();
-}
-
 namespace {
 
 using Pose6 = std::array<double, 6>;  // angle-axis, translation: p_out = R p_in + t

@@ -45,17 +45,17 @@ CalibrationBoard make_aprilgrid(const AprilGridSpec& s) {
 AprilGridSpec parse_aprilgrid_spec(const std::string& text, const std::string& name) {
   const nlohmann::json j = parse_json_input(text, name);
   if (!j.is_object()) throw InputError(name, 0, "", "expected a JSON object describing the board");
-  const std::string type = j.value("type", std::string("aprilgrid"));
+  const std::string type = json_field_or<std::string>(j, "type", "aprilgrid", name, "");
   if (type != "aprilgrid") throw InputError(name, 0, "type", "unsupported board type '" + type + "' (expected aprilgrid)");
   AprilGridSpec s;
-  s.family = j.value("family", s.family);
+  s.family = json_field_or(j, "family", s.family, name, "");
   s.rows = json_field<int>(j, "rows", name, "");
   s.cols = json_field<int>(j, "cols", name, "");
   s.tag_size_m = json_field<double>(j, "tag_size_m", name, "");
-  s.spacing = j.value("spacing", s.spacing);
-  s.first_id = j.value("first_id", 0);
-  s.double_sided = j.value("double_sided", false);
-  s.thickness_m = j.value("thickness_m", s.thickness_m);
+  s.spacing = json_field_or(j, "spacing", s.spacing, name, "");
+  s.first_id = json_field_or(j, "first_id", 0, name, "");
+  s.double_sided = json_field_or(j, "double_sided", false, name, "");
+  s.thickness_m = json_field_or(j, "thickness_m", s.thickness_m, name, "");
   if (s.rows < 1 || s.cols < 1 || s.rows * s.cols > 2000) throw InputError(name, 0, "rows", "rows and cols must be 1..2000 tags");
   if (!(s.tag_size_m > 0.005 && s.tag_size_m < 2)) throw InputError(name, 0, "tag_size_m", "tag size must be in metres (0.005 to 2)");
   if (!(s.spacing >= 0 && s.spacing < 5)) throw InputError(name, 0, "spacing", "spacing is a fraction of the tag size (0 to 5)");

@@ -4,9 +4,13 @@
 #include <tag36h11.h>
 #include <tagStandard41h12.h>
 
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "cpgait/capture/input_error.h"
+#include "cpgait/video/footage.h"
 #include "cpgait/video/tag_family.h"
 
 namespace cpgait::video {
@@ -34,16 +38,6 @@ struct FamilyHandle {
 };
 
 }  // namespace
-
-TagFamilyInfo tag_family_info(const std::string& name) {
-  FamilyHandle f(name);
-  return {name, f.family->total_width, f.family->width_at_border, static_cast<int>(f.family->ncodes)};
-}
-
-int tag_bitmap_border_offset_cells(const std::string& family) {
-  const TagFamilyInfo info = tag_family_info(family);
-  return (info.total_width - info.width_at_border) / 2 + 1;
-}
 
 cv::Mat tag_bitmap(const std::string& name, int id) {
   FamilyHandle f(name);
@@ -105,6 +99,13 @@ std::vector<TagDetection> TagDetector::detect(const cv::Mat& image) const {
   }
   apriltag_detections_destroy(found);
   return out;
+}
+
+ImageDetections detect_image_file(const std::string& path, const TagDetectorOptions& options) {
+  if (!std::filesystem::exists(path)) throw InputError(path, 0, "images", "file not found");
+  const cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (img.empty()) throw InputError(path, 0, "images", "not a readable image");
+  return {img.cols, img.rows, TagDetector(options).detect(img)};
 }
 
 }  // namespace cpgait::video

@@ -40,7 +40,7 @@ TagSet parse_tag_set_json(const std::string& text, const std::string& name) {
   if (!j.is_object() || !j.contains("tags") || !j["tags"].is_array())
     throw InputError(name, 0, "tags", "expected an object with a \"tags\" array");
   TagSet set;
-  set.family = j.value("family", set.family);
+  set.family = json_field_or(j, "family", set.family, name, "");
   int num_codes = 0;
   try {
     num_codes = tag_family_info(set.family).num_codes;

@@ -1,7 +1,7 @@
 // Capture: AprilTag footage -> virtual markers (the tag corners), which the model gains as markers.
 // Runs first, and only when the trial is footage.
 #include "cpgait/video/tag_markers.h"
-#include "cpgait/video/capture_markers.h"
+#include "cpgait/video/footage.h"
 #include "stage.h"
 
 namespace cpgait::services {
@@ -56,14 +56,14 @@ class CaptureStage final : public StageWithOptions<CaptureStageOptions> {
     const video::CameraRig rig = video::read_calibration(in.calibration_path);
     const video::TagSet tags = video::read_tag_set(in.tags_path);
     video::with_tag_markers(trial.model, tags, in.tags_path);
-    for (const auto& [camera, path] : video::match_videos_to_cameras(rig, in.videos)) video::probe_video(path);
+    for (const auto& [camera, path] : video::match_videos_to_cameras(rig, in.videos)) video::footage().probe_video(path);
   }
   nlohmann::json execute(StageContext& trial, const CaptureStageOptions& o) const override {
     const TrialInputs& in = trial.inputs;
     const video::CameraRig rig = video::read_calibration(in.calibration_path);
     const video::TagSet tags = video::read_tag_set(in.tags_path);
     trial.model = video::with_tag_markers(trial.model, tags, in.tags_path);
-    video::CaptureResult r = video::capture_markers(rig, tags, in.videos, o.capture_options(), trial.progress);
+    video::CaptureResult r = video::footage().capture_markers(rig, tags, in.videos, o.capture_options(), trial.progress);
     r.markers.name = in.name + ".trc";
     trial.write_text(format_trc(r.markers, "mm"), ".trc");
     trial.write(video::capture_quality_table(r), "_capture_quality.sto");

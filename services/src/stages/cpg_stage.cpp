@@ -3,6 +3,7 @@
 #include "cpgait/kinematics/gait_events.h"
 #include "products.h"
 #include "stage.h"
+#include "output_files.h"
 
 namespace cpgait::services {
 namespace {
@@ -73,7 +74,7 @@ class CpgStage final : public StageWithOptions<CpgStageOptions> {
     fo.pattern_units = o.pattern_units;
     const Eigen::MatrixXd cycle = cycle_average(so.time_s, so.controls.leftCols(nm), strikes, fo.phase_samples);
     const CpgFitResult fit = fit_cpg(cycle, cycle_s, names, fo);
-    trial.write_text(fit.model.to_json().dump(2) + "\n", "_cpg.json");
+    trial.write_text(json_text(fit.model.to_json(), 2) + "\n", "_cpg.json");
     std::vector<double> phase_time;
     for (int k = 0; k < cycle.rows(); ++k) phase_time.push_back(cycle_s * k / static_cast<double>(cycle.rows()));
     trial.write(make_storage("cycle-averaged SO activations", names, phase_time, fit.target, false), "_cpg_target.sto");

@@ -3,6 +3,7 @@
 #include "cpgait/gait/reproduced_gait.h"
 #include "products.h"
 #include "stage.h"
+#include "output_files.h"
 
 namespace cpgait::services {
 namespace {
@@ -69,7 +70,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
     summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
-    trial.write_text(summary.dump(2) + "\n", "_gait.json");
+    trial.write_text(json_text(summary, 2) + "\n", "_gait.json");
     return summary;
   }
 };

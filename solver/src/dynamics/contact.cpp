@@ -66,12 +66,16 @@ ContactSet parse_contact_set_json(const std::string& text, const std::string& na
     set.ground_velocity_m_s = {v[0], v[1], v[2]};
   }
   ContactSphere defaults;
-  if (j.contains("defaults")) read_sphere_fields(j["defaults"], defaults, name, "defaults");
+  if (j.contains("defaults")) {
+    if (!j["defaults"].is_object()) throw InputError(name, 0, "defaults", "expected an object of sphere fields");
+    read_sphere_fields(j["defaults"], defaults, name, "defaults");
+  }
   for (std::size_t i = 0; i < j["spheres"].size(); ++i) {
     const auto& e = j["spheres"][i];
     const std::string at = "spheres[" + std::to_string(i) + "]";
+    if (!e.is_object()) throw InputError(name, 0, at, "expected an object with \"body\" and \"location_m\"");
     ContactSphere s = defaults;
-    s.name = e.value("name", at);
+    s.name = json_field_or(e, "name", at, name, at);
     const std::string body = json_field<std::string>(e, "body", name, at);
     s.body = model.body_index(body);
     if (s.body <= 0) throw InputError(name, 0, at + ".body", "model " + model.name + " has no body " + body);

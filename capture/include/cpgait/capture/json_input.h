@@ -22,4 +22,11 @@ T json_field(const nlohmann::json& j, const std::string& key, const std::string&
   return T{};
 }
 
+// `key` of object `j` as T, or `fallback` when absent; InputError when present but mistyped.
+template <typename T>
+T json_field_or(const nlohmann::json& j, const std::string& key, const T& fallback, const std::string& name,
+                const std::string& field_prefix) {
+  return j.is_object() && j.contains(key) ? json_field<T>(j, key, name, field_prefix) : fallback;
+}
+
 }  // namespace cpgait

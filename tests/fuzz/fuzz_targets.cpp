@@ -1,0 +1,227 @@
+#include "fuzz/fuzz_targets.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "c3d_writer.h"
+#include "cpgait/capture/actuator_set.h"
+#include "cpgait/capture/analyze_setup.h"
+#include "cpgait/capture/c3d.h"
+#include "cpgait/capture/cmc_setup.h"
+#include "cpgait/capture/external_loads.h"
+#include "cpgait/capture/ground_reactions.h"
+#include "cpgait/capture/id_setup.h"
+#include "cpgait/capture/ik_setup.h"
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/marker_file.h"
+#include "cpgait/capture/scale_setup.h"
+#include "cpgait/capture/storage.h"
+#include "cpgait/capture/text_lines.h"
+#include "cpgait/capture/trc.h"
+#include "cpgait/capture/json_input.h"
+#include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/dynamics/contact.h"
+#include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/fixtures/tag_footage.h"
+#include "cpgait/model/osim_reader.h"
+#include "cpgait/video/calibration_board.h"
+#include "cpgait/video/camera.h"
+#include "cpgait/video/tag_set.h"
+#include "pipeline.h"
+#include "server.h"
+
+namespace cpgait::testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+const Model& walker() {
+  static const Model m = read_osim(std::string(fixtures::fixtures_dir()) + "/models/walker.osim").model;
+  return m;
+}
+
+// A folder of this process's own for the readers that take a path, removed at exit.
+const fs::path& scratch_dir() {
+  struct Scratch {
+    fs::path dir;
+    Scratch() {
+      const fs::path base = fs::is_directory("/dev/shm") ? fs::path("/dev/shm") : fs::temp_directory_path();
+      dir = base / ("cpgait-fuzz-" + std::to_string(::getpid()));
+      fs::create_directories(dir);
+    }
+    ~Scratch() {
+      std::error_code ec;
+      fs::remove_all(dir, ec);
+    }
+  };
+  static const Scratch scratch;
+  return scratch.dir;
+}
+
+// Every setup and ForceSet reader on the same bytes: each refuses what is not its kind.
+void read_setup_xml(std::string_view bytes) {
+  const std::string path = (scratch_dir() / "setup.xml").string();
+  {
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  }
+  auto each = [](auto&& read) {
+    try {
+      read();
+    } catch (const InputError&) {
+    }
+  };
+  each([&] { read_ik_setup(path); });
+  each([&] { read_ik_tasks(path); });
+  each([&] { read_id_setup(path); });
+  each([&] { read_analyze_setup(path); });
+  each([&] { read_cmc_setup(path); });
+  each([&] { read_cmc_tasks(path); });
+  each([&] { read_control_set(path); });
+  each([&] { read_forward_setup(path); });
+  each([&] { read_actuators(path); });
+}
+
+// The service in-process on a scratch data folder, no workers. The input's first line is the path
+// posted to (/api/v1/trials or /api/v1/models), the rest the multipart body.
+void post_upload(std::string_view bytes) {
+  static services::InProcessServer server([] {
+    services::ServerOptions o;
+    o.data_dir = (scratch_dir() / "data").string();
+    o.workers = 0;
+    return o;
+  }());
+  const std::size_t eol = bytes.find('\n');
+  std::string path(bytes.substr(0, eol));
+  const std::string_view body = eol == std::string_view::npos ? std::string_view() : bytes.substr(eol + 1);
+  if (path.empty() || path.find_first_of(" \r") != std::string::npos) path = "/api/v1/trials";
+  const std::string request = "POST " + path + " HTTP/1.1\r\nHost: fuzz\r\nContent-Type: multipart/form-data; boundary=" +
+                              "cpgaitfuzz\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + std::string(body);
+  const std::string response = server.handle(request);
+  const int status = response.size() > 12 && response.rfind("HTTP/1.1 ", 0) == 0 ? std::atoi(response.c_str() + 9) : 0;
+  const std::size_t head_end = response.find("\r\n\r\n");
+  const nlohmann::json reply =
+      head_end == std::string::npos ? nlohmann::json() : nlohmann::json::parse(response.substr(head_end + 4), nullptr, false);
+  if (status < 200 || status >= 500 || reply.is_discarded()) {
+    std::fprintf(stderr, "upload answered %d: %s\n", status, response.substr(0, 600).c_str());
+    std::abort();
+  }
+  // What was accepted is deleted again, so the scratch folder stays small.
+  if (status == 202) server.handle("DELETE /api/v1/trials/" + reply.value("id", std::string()) + " HTTP/1.1\r\nHost: fuzz\r\n\r\n");
+  if (status == 201) fs::remove_all(scratch_dir() / "data" / "models" / reply.value("id", std::string("-")));
+}
+
+std::string multipart(const std::string& path, const std::vector<std::pair<std::string, std::pair<std::string, std::string>>>& parts) {
+  std::string body = path + "\n";
+  for (const auto& [name, file] : parts)
+    body += "--cpgaitfuzz\r\nContent-Disposition: form-data; name=\"" + name + "\"; filename=\"" + file.first + "\"\r\n\r\n" +
+            file.second + "\r\n";
+  return body + "--cpgaitfuzz--\r\n";
+}
+
+}  // namespace
+
+const std::vector<std::string>& fuzz_target_names() {
+  static const std::vector<std::string> names = {"trc",         "storage",     "c3d",           "osim",         "external_loads",
+                                                 "ik_tasks_json", "scale_setup", "setup_xml",   "video_json",   "contact_set_json",
+                                                 "cpg_model_json", "pipeline_options", "upload"};
+  return names;
+}
+
+void fuzz_one(std::string_view target, std::string_view bytes) {
+  try {
+    if (target == "trc") {
+      parse_trc(bytes, "fuzz.trc");
+    } else if (target == "storage") {
+      parse_storage(bytes, "fuzz.sto");
+    } else if (target == "c3d") {
+      const C3dFile f = parse_c3d(bytes, "fuzz.c3d");
+      ground_reactions(f, c3d_to_opensim(f, C3dVertical::kAuto));
+    } else if (target == "osim") {
+      parse_osim(std::string(bytes), "fuzz.osim");
+    } else if (target == "external_loads") {
+      parse_external_loads(std::string(bytes), "fuzz.xml");
+    } else if (target == "ik_tasks_json") {
+      parse_ik_tasks_json(std::string(bytes), "fuzz.json");
+    } else if (target == "scale_setup") {
+      parse_scale_setup(std::string(bytes), "fuzz.xml");
+    } else if (target == "setup_xml") {
+      read_setup_xml(bytes);
+    } else if (target == "video_json") {
+      const std::string text(bytes);
+      for (auto* read : {+[](const std::string& t) { video::parse_calibration_json(t, "fuzz.json"); },
+                         +[](const std::string& t) { video::parse_tag_set_json(t, "fuzz.json"); },
+                         +[](const std::string& t) { video::parse_aprilgrid_spec(t, "fuzz.json"); }}) {
+        try {
+          read(text);
+        } catch (const InputError&) {
+        }
+      }
+    } else if (target == "contact_set_json") {
+      parse_contact_set_json(std::string(bytes), "fuzz.json", walker());
+    } else if (target == "cpg_model_json") {
+      const std::string text(bytes);
+      CpgModel::from_json(parse_json_input(text, "fuzz.json"), "fuzz.json");
+    } else if (target == "pipeline_options") {
+      services::PipelineOptions::parse(std::string(bytes), "fuzz.json");
+    } else if (target == "upload") {
+      post_upload(bytes);
+    } else {
+      std::fprintf(stderr, "no fuzz target '%.*s'\n", static_cast<int>(target.size()), target.data());
+      std::abort();
+    }
+  } catch (const InputError&) {
+  }
+}
+
+std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
+  const MarkerTrial trial = fixtures::synthesize_trial(walker(), {}).markers;
+  const std::string trc = format_trc(trial, "mm");
+  fixtures::SyntheticTrialOptions short_trial;  // uploads are fuzzed faster with a short trial
+  short_trial.duration_s = 0.2;
+  const std::string short_trc = format_trc(fixtures::synthesize_trial(walker(), short_trial).markers, "mm");
+  const std::string walker_osim = text::read_file(std::string(fixtures::fixtures_dir()) + "/models/walker.osim");
+  const std::string contact = R"({"ground_height_m": 0, "defaults": {"radius_m": 0.03, "stiffness": 2e6},
+    "spheres": [{"name": "heel_r", "body": "foot_r", "location_m": [0, -0.02, 0]}, {"body": "foot_l", "location_m": [0.1, -0.02, 0]}]})";
+  return {
+      {"trc", {trc, "PathFileType\t4\n"}},
+      {"storage", {"x\nversion=1\nnRows=1\nnColumns=2\nendheader\ntime\ta\n0\t1\n", "endheader\n"}},
+      {"c3d", {format_c3d_z_up(trial), std::string(512, '\0')}},
+      {"osim", {walker_osim, "<Model>"}},
+      {"external_loads", {"<ExternalLoads><objects><ExternalForce/></objects></ExternalLoads>"}},
+      {"ik_tasks_json", {R"({"markers": {"R.ASIS": 2}})", "{"}},
+      {"scale_setup", {"<OpenSimDocument><ScaleTool><mass>-5</mass></ScaleTool></OpenSimDocument>"}},
+      {"setup_xml",
+       {"<OpenSimDocument Version=\"30000\"><InverseKinematicsTool><marker_file>m.trc</marker_file><IKTaskSet><objects>"
+        "<IKMarkerTask name=\"A\"><weight>2</weight></IKMarkerTask></objects></IKTaskSet></InverseKinematicsTool></OpenSimDocument>",
+        "<OpenSimDocument><ForceSet><objects><CoordinateActuator name=\"r\"><coordinate>hip</coordinate>"
+        "<optimal_force>100</optimal_force></CoordinateActuator></objects></ForceSet></OpenSimDocument>",
+        "<CMCTool><desired_kinematics_file>q.mot</desired_kinematics_file><task_set_file>t.xml</task_set_file></CMCTool>"}},
+      {"video_json",
+       {video::format_calibration_json(fixtures::lab_rig()), video::format_tag_set_json(fixtures::tagged_walker().tags),
+        video::format_aprilgrid_spec(video::AprilGridSpec{})}},
+      {"contact_set_json", {contact, R"({"spheres": [7]})"}},
+      {"cpg_model_json",  // the seed method's two-neuron example driving two muscles
+       {R"({"network": {"s": [5, 5], "tau_r_s": [1, 1], "tau_a_s": [10, 10], "b": [2.5, 2.5], "a": [[0, 1.5], [1.5, 0]]},
+            "start": {"x": [0.1, 0], "f": [0, 0]}, "cycle_s": 1.1, "muscles": ["soleus_r", "tib_ant_r"],
+            "output_map": [[1, 0], [0, 1]], "output_bias": [0, 0], "feedback": {"signals": []}})",
+        R"({"network": {"s": [1]}})"}},
+      {"pipeline_options",
+       {R"({"model": "walker", "stages": ["ik", "id"], "time_range": [0.1, 1.2], "ik": {"accuracy": 1e-5}})", "[]", "{\"stages\": 3}"}},
+      {"upload",
+       {multipart("/api/v1/trials", {{"markers", {"walk.trc", short_trc}}, {"options", {"options.json", R"({"model": "walker"})"}}}),
+        multipart("/api/v1/trials", {{"markers", {"walk.trc", short_trc}}, {"options", {"options.json", R"({"model": "walker", "stages": ["ik"]})"}},
+                                     {"grf", {"grf.mot", "endheader\ntime\tx\n0\t1\n"}}, {"loads", {"loads.xml", "<ExternalLoads/>"}}}),
+        multipart("/api/v1/trials", {{"static", {"static.trc", short_trc}}, {"markers", {"walk.trc", short_trc}},
+                                     {"options", {"options.json", R"({"model": "walker"})"}}}),
+        multipart("/api/v1/models", {{"model", {"walker.osim", walker_osim}}}), "/api/v1/trials\n--cpgaitfuzz--\r\n"}}};
+}
+
+}  // namespace cpgait::testing
