@@ -51,22 +51,60 @@ struct LimitCycle {
   std::vector<MatsuokaState> states;  // at each sampled phase
 };
 
+// The rhythm layer's usual size (two pairs) on fixed-size vectors: its limit cycle takes ~2,000 RK4
+// steps per residual evaluation, where dynamic-size products cost more than the arithmetic. The same
+// operations as matsuoka_step.
+struct FixedNetwork4 {
+  using V = Eigen::Vector4d;
+  Eigen::Matrix4d a;
+  V s, b, tau_r, tau_a;
+  explicit FixedNetwork4(const MatsuokaNetwork& n) : a(n.a), s(n.s), b(n.b), tau_r(n.tau_r_s), tau_a(n.tau_a_s) {}
+  void rates(const V& x, const V& f, V& dx, V& df) const {
+    const V y = x.cwiseMax(0.0);
+    const V ay = a * y;
+    dx = (s - x - b.cwiseProduct(f) - ay).cwiseQuotient(tau_r);
+    df = (y - f).cwiseQuotient(tau_a);
+  }
+  void step(V& x, V& f, double dt) const {
+    V k1x, k1f, k2x, k2f, k3x, k3f, k4x, k4f;
+    rates(x, f, k1x, k1f);
+    rates(x + 0.5 * dt * k1x, f + 0.5 * dt * k1f, k2x, k2f);
+    rates(x + 0.5 * dt * k2x, f + 0.5 * dt * k2f, k3x, k3f);
+    rates(x + dt * k3x, f + dt * k3f, k4x, k4f);
+    x += dt / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x);
+    f += dt / 6.0 * (k1f + 2 * k2f + 2 * k3f + k4f);
+  }
+};
+
 bool limit_cycle(const MatsuokaNetwork& n, LimitCycle& out) {
   const double w = matsuoka_natural_frequency(1.0, n.tau_a_s[0], n.b[0], std::max(n.a(0, 1), 1e-3));
   const double T_est = w > 0 ? 2 * M_PI / w : 10 * n.tau_a_s[0];
   const double dt = std::min(T_est / 200.0, 0.05);
   MatsuokaState st = MatsuokaState::resting(n);
-  MatsuokaScratch scratch;
-  const Eigen::VectorXd none;
   const int transient = static_cast<int>(std::min(6.0 * T_est / dt, 20000.0));
-  for (int i = 0; i < transient; ++i) matsuoka_step(n, st, dt, none, scratch);
   const int steps = static_cast<int>(std::min(3.5 * T_est / dt, 20000.0));
-  std::vector<MatsuokaState> states(steps);
+  Eigen::MatrixXd xs(n.size(), steps), fs(n.size(), steps);  // states by column: no allocation per step
   Eigen::MatrixXd y(steps, n.size());
-  for (int i = 0; i < steps; ++i) {
-    matsuoka_step(n, st, dt, none, scratch);
-    y.row(i) = st.x.cwiseMax(0.0).transpose();
-    states[i] = st;
+  if (n.size() == 4) {
+    const FixedNetwork4 net(n);
+    Eigen::Vector4d x = st.x, f = st.f;
+    for (int i = 0; i < transient; ++i) net.step(x, f, dt);
+    for (int i = 0; i < steps; ++i) {
+      net.step(x, f, dt);
+      y.row(i) = x.cwiseMax(0.0).transpose();
+      xs.col(i) = x;
+      fs.col(i) = f;
+    }
+  } else {
+    MatsuokaScratch scratch;
+    const Eigen::VectorXd none;
+    for (int i = 0; i < transient; ++i) matsuoka_step(n, st, dt, none, scratch);
+    for (int i = 0; i < steps; ++i) {
+      matsuoka_step(n, st, dt, none, scratch);
+      y.row(i) = st.x.cwiseMax(0.0).transpose();
+      xs.col(i) = st.x;
+      fs.col(i) = st.f;
+    }
   }
   const Eigen::VectorXd y0 = y.col(0);
   if (y0.maxCoeff() - y0.minCoeff() < 1e-3) return false;
@@ -87,8 +125,8 @@ bool limit_cycle(const MatsuokaNetwork& n, LimitCycle& out) {
     const double a = pos - i;
     out.outputs.row(k) = (1 - a) * y.row(i) + a * y.row(i + 1);
     // Interpolated, not nearest: pattern neurons amplify the rhythm, so its start must be exact.
-    out.states[k].x = (1 - a) * states[i].x + a * states[i + 1].x;
-    out.states[k].f = (1 - a) * states[i].f + a * states[i + 1].f;
+    out.states[k].x = (1 - a) * xs.col(i) + a * xs.col(i + 1);
+    out.states[k].f = (1 - a) * fs.col(i) + a * fs.col(i + 1);
   }
   return true;
 }
@@ -122,16 +160,10 @@ Eigen::MatrixXd at_phases(const LimitCycle& c, int samples, double phase) {
 Eigen::MatrixXd best_map(const Eigen::MatrixXd& Y, const Eigen::MatrixXd& target, Eigen::MatrixXd* map, Eigen::VectorXd* bias) {
   Eigen::MatrixXd design(Y.rows(), Y.cols() + 1);
   design << Y, Eigen::VectorXd::Ones(Y.rows());
-  Eigen::MatrixXd fitted(target.rows(), target.cols());
-  if (map) map->resize(target.cols(), Y.cols());
-  if (bias) bias->resize(target.cols());
-  for (Eigen::Index m = 0; m < target.cols(); ++m) {
-    const Eigen::VectorXd w = nnls(design, target.col(m));
-    fitted.col(m) = design * w;
-    if (map) map->row(m) = w.head(Y.cols()).transpose();
-    if (bias) (*bias)[m] = w[Y.cols()];
-  }
-  return fitted;
+  const Eigen::MatrixXd weights = nnls_columns(design, target);  // every muscle on one design
+  if (map) *map = weights.topRows(Y.cols()).transpose();
+  if (bias) *bias = weights.row(Y.cols()).transpose();
+  return design * weights;
 }
 
 struct PatternResidual {
