@@ -6,26 +6,20 @@
 #include <filesystem>
 
 #include "cpgait/capture/storage.h"
-#include "cpgait/capture/text_lines.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/model/osim_reader.h"
 #include "pipeline.h"
+#include "subject01_trial.h"
 
 using namespace cpgait;
 
 static void BM_CpgFitSubject01(benchmark::State& state) {
-  const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
-  if (!std::filesystem::exists(base + "subject01_walk1_grf.mot")) {
+  services::TrialInputs in;
+  if (!bench::subject01_trial(in)) {
     state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
     return;
   }
   // The activations as the pipeline makes them (IK, ID, SO), once.
-  services::TrialInputs in;
-  in.name = "subject01_walk1";
-  in.model_path = base + "OutputReference/subject01_simbody.osim";
-  in.markers = text::read_file(base + "subject01_walk1.trc"), in.markers_name = "subject01_walk1.trc";
-  in.grf = text::read_file(base + "subject01_walk1_grf.mot"), in.grf_name = "subject01_walk1_grf.mot";
-  in.loads = text::read_file(base + "subject01_walk1_grf.xml"), in.loads_name = "subject01_walk1_grf.xml";
   const std::string out = (std::filesystem::temp_directory_path() / "cpgait_bench_cpg").string();
   services::run_pipeline(in, services::PipelineOptions::from_json({{"stages", {"ik", "id", "so"}}}, "bench"), out);
   const Storage activations = read_storage(out + "/subject01_walk1_StaticOptimization_activation.sto");
@@ -38,7 +32,7 @@ static void BM_CpgFitSubject01(benchmark::State& state) {
   }
   Eigen::MatrixXd patterns(activations.num_rows(), static_cast<Eigen::Index>(cols.size()));
   for (std::size_t k = 0; k < cols.size(); ++k) patterns.col(static_cast<Eigen::Index>(k)) = activations.data.col(cols[k]);
-  const Storage grf = read_storage(base + "subject01_walk1_grf.mot");
+  const Storage grf = parse_storage(in.grf, in.grf_name);
   const std::vector<double> starts = contact_onsets(grf.time(), grf.data.col(grf.column("ground_force_vy")));
   const Eigen::VectorXd t = activations.time();
   const std::vector<double> time(t.data(), t.data() + t.size());

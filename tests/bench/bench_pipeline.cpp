@@ -4,23 +4,17 @@
 
 #include <filesystem>
 
-#include "cpgait/capture/text_lines.h"
 #include "pipeline.h"
+#include "subject01_trial.h"
 
 using namespace cpgait;
 
 static void BM_PipelineIkIdSoSubject01(benchmark::State& state) {
-  const std::string base = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
-  if (!std::filesystem::exists(base + "subject01_walk1_grf.mot")) {
+  services::TrialInputs in;
+  if (!bench::subject01_trial(in)) {
     state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
     return;
   }
-  services::TrialInputs in;
-  in.name = "subject01_walk1";
-  in.model_path = base + "OutputReference/subject01_simbody.osim";
-  in.markers = text::read_file(base + "subject01_walk1.trc"), in.markers_name = "subject01_walk1.trc";
-  in.grf = text::read_file(base + "subject01_walk1_grf.mot"), in.grf_name = "subject01_walk1_grf.mot";
-  in.loads = text::read_file(base + "subject01_walk1_grf.xml"), in.loads_name = "subject01_walk1_grf.xml";
   const services::PipelineOptions options =
       services::PipelineOptions::from_json({{"stages", {"ik", "id", "so"}}, {"time_range", {0.5, 2.5}}}, "bench");
   const std::string out = (std::filesystem::temp_directory_path() / "cpgait_bench_pipeline").string();
