@@ -1,6 +1,5 @@
 #include "cpgait/ik/inverse_kinematics.h"
 
-#include <ceres/ceres.h>
 
 #include <chrono>
 #include <cmath>
@@ -11,6 +10,7 @@
 #include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
+#include "cpgait/optim/levenberg_marquardt.h"
 
 namespace cpgait {
 namespace {
@@ -41,13 +41,11 @@ Eigen::VectorXd reference_row_at(const Model& model, const Storage& ref, const I
 // Residuals: sqrt(w) * (p_model - p_measured) per marker (zero where the marker is missing), then
 // sqrt(w) * (q - q_task) per coordinate task. Parameters: the free coordinates (neither locked nor set
 // by a coupler); coupled ones follow their independent coordinate.
-class IkCost final : public ceres::CostFunction {
+class IkCost {
  public:
   IkCost(const Model& model, const IkTargets& targets, const std::vector<int>& free, const Eigen::VectorXd& q_fixed)
       : model_(model), targets_(targets), free_(free), q_(q_fixed), ws_(model), S_(model),
         free_slot_(model.num_coordinates(), -1) {
-    set_num_residuals(static_cast<int>(3 * targets.markers.size() + targets.coordinates.size()));
-    mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
     for (std::size_t k = 0; k < free.size(); ++k) free_slot_[free[k]] = static_cast<int>(k);
     coupler_of_.assign(model.num_coordinates(), -1);
     for (std::size_t j = 0; j < model.couplers.size(); ++j) coupler_of_[model.couplers[j].dependent] = static_cast<int>(j);
@@ -67,8 +65,10 @@ class IkCost final : public ceres::CostFunction {
     reference_row_ = reference_row;
   }
 
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    const double* x = parameters[0];
+  int num_residuals() const { return static_cast<int>(3 * targets_.markers.size() + targets_.coordinates.size()); }
+
+  // Residuals and, when J is not null, the Jacobian (row-major).
+  void operator()(const double* x, double* residuals, double* J_out) const {
     for (std::size_t k = 0; k < free_.size(); ++k) q_[free_[k]] = x[k];
     apply_coordinate_couplers(model_, q_.data());
     forward_kinematics(model_, q_.data(), ws_);
@@ -78,11 +78,11 @@ class IkCost final : public ceres::CostFunction {
       const CoordinateCoupler& cc = model_.couplers[coupler_of_[c]];
       return std::make_pair(free_slot_[cc.independent], cc.scale * cc.function.derivative(q_[cc.independent]));
     };
-    const bool want_j = jacobians && jacobians[0];
+    const bool want_j = J_out != nullptr;
     const int nf = static_cast<int>(free_.size());
     if (want_j) {
       motion_subspace(model_, q_.data(), ws_, S_);
-      std::fill(jacobians[0], jacobians[0] + static_cast<std::size_t>(num_residuals()) * nf, 0.0);
+      std::fill(J_out, J_out + static_cast<std::size_t>(num_residuals()) * nf, 0.0);
     }
     for (std::size_t i = 0; i < targets_.markers.size(); ++i) {
       const auto& m = targets_.markers[i];
@@ -96,7 +96,7 @@ class IkCost final : public ceres::CostFunction {
       const double sw = sqrt_w_markers_[i];
       for (int a = 0; a < 3; ++a) r[a] = sw * (p[a] - measured[a]);
       if (!want_j) continue;
-      double* J = jacobians[0] + 3 * i * nf;  // row-major
+      double* J = J_out + 3 * i * nf;
       for (int c : marker_coordinates_[i]) {
         const auto [k, factor] = slot_and_factor(c);
         const Eigen::Vector3d d = factor * point_velocity_column(S_, c, p);
@@ -115,10 +115,9 @@ class IkCost final : public ceres::CostFunction {
                          (coupler_of_[c.coordinate] >= 0 && free_slot_[model_.couplers[coupler_of_[c.coordinate]].independent] >= 0);
       if (want_j && moves) {
         const auto [k, factor] = slot_and_factor(c.coordinate);
-        jacobians[0][(base + i) * nf + k] = sw * factor;
+        J_out[(base + i) * nf + k] = sw * factor;
       }
     }
-    return true;
   }
 
  private:
@@ -219,35 +218,24 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
   for (const auto& cc : model.couplers) coupled[cc.dependent] = cc.independent;
   Eigen::VectorXd q = model.default_coordinates();
   apply_coordinate_couplers(model, q.data());
-  IkCost* cost = new IkCost(model, targets, free, q);
-  std::vector<double> x(free.size());
-  for (std::size_t k = 0; k < free.size(); ++k) x[k] = q[free[k]];
-
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  problem.AddResidualBlock(cost, nullptr, x.data());
+  IkCost cost(model, targets, free, q);
+  Eigen::VectorXd x(free.size()), lo(free.size()), hi(free.size());
   for (std::size_t k = 0; k < free.size(); ++k) {
     const Coordinate& c = model.coordinates[free[k]];
     const bool bound = options.bounds == IkOptions::Bounds::kAllRanges ||
                        (options.bounds == IkOptions::Bounds::kClampedOnly && c.clamped);
-    if (!bound || c.range_min <= -1e29) continue;
-    problem.SetParameterLowerBound(x.data(), static_cast<int>(k), c.range_min);
-    problem.SetParameterUpperBound(x.data(), static_cast<int>(k), c.range_max);
-    x[k] = std::clamp(x[k], c.range_min, c.range_max);
+    const bool has_range = bound && c.range_min > -1e29;
+    lo[k] = has_range ? c.range_min : -std::numeric_limits<double>::infinity();
+    hi[k] = has_range ? c.range_max : std::numeric_limits<double>::infinity();
+    x[k] = std::clamp(q[free[k]], lo[k], hi[k]);
   }
-
-  ceres::Solver::Options so;
-  // 121 x 23 for gait2392: the normal equations are well conditioned here and forming them is
-  // about 3x cheaper than QR (measured with cpgait_bench).
-  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  so.minimizer_progress_to_stdout = false;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  so.function_tolerance = options.function_tolerance;
-  so.gradient_tolerance = options.gradient_tolerance;
-  so.parameter_tolerance = options.parameter_tolerance;
-  so.max_num_iterations = options.max_iterations;
+  LevenbergMarquardtOptions lm;
+  lm.function_tolerance = options.function_tolerance;
+  lm.gradient_tolerance = options.gradient_tolerance;
+  lm.parameter_tolerance = options.parameter_tolerance;
+  lm.max_iterations = options.max_iterations;
+  LevenbergMarquardtWorkspace lm_workspace;
+  const ResidualFunction residuals = [&cost](const double* xs, double* r, double* J) { cost(xs, r, J); };
 
   const int nm = static_cast<int>(targets.markers.size());
   const int nf = static_cast<int>(frames.size());
@@ -279,7 +267,7 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
     if (progress && progress->cancelled()) throw std::runtime_error("inverse kinematics cancelled");
     const int f = frames[i];
     if (coordinate_reference) reference_row = reference_row_at(model, *coordinate_reference, targets, trial.time_s[f]);
-    cost->set_frame(&trial, f, coordinate_reference ? &reference_row : nullptr);
+    cost.set_frame(&trial, f, coordinate_reference ? &reference_row : nullptr);
     // Warm start: extrapolate linearly from the two previous solutions (smooth motion), within bounds.
     if (i >= 2) {
       for (std::size_t k = 0; k < free.size(); ++k) {
@@ -287,20 +275,16 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
                             return !std::isnan(trial.position_m(f, targets.markers[static_cast<std::size_t>(m)].trial_marker)[0]);
                           });
         double guess = seen ? 2.0 * result.q(i - 1, free[k]) - result.q(i - 2, free[k]) : result.q(i - 1, free[k]);
-        const double lo = problem.GetParameterLowerBound(x.data(), static_cast<int>(k));
-        const double hi = problem.GetParameterUpperBound(x.data(), static_cast<int>(k));
-        x[k] = std::clamp(guess, lo, hi);
+        x[k] = std::clamp(guess, lo[k], hi[k]);
       }
     }
-    ceres::Solver::Summary s;
-    ceres::Solve(so, &problem, &s);
+    const LevenbergMarquardtSummary s = levenberg_marquardt(residuals, cost.num_residuals(), lo, hi, lm, x, lm_workspace);
     // Warm start: x keeps this frame's solution for the next.
     for (std::size_t k = 0; k < free.size(); ++k) q[free[k]] = x[k];
     apply_coordinate_couplers(model, q.data());
-    result.summary.total_iterations += static_cast<int>(s.iterations.size()) - 1;
-    result.summary.max_iterations_in_a_frame =
-        std::max(result.summary.max_iterations_in_a_frame, static_cast<int>(s.iterations.size()) - 1);
-    if (s.termination_type != ceres::CONVERGENCE) ++result.summary.frames_not_converged;
+    result.summary.total_iterations += s.iterations;
+    result.summary.max_iterations_in_a_frame = std::max(result.summary.max_iterations_in_a_frame, s.iterations);
+    if (!s.converged) ++result.summary.frames_not_converged;
     result.q.row(i) = q.transpose();
     result.objective[i] = 2.0 * s.final_cost;
 
