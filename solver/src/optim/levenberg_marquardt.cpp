@@ -12,6 +12,7 @@ LevenbergMarquardtSummary levenberg_marquardt(const ResidualFunction& f, int m, 
   w.J.resize(m, n);
   w.r.resize(m);
   w.r_new.resize(m);
+  w.J_new.resize(m, n);
   w.H.resize(n, n);
   w.A.resize(n, n);
   x = x.cwiseMax(lo).cwiseMin(hi);
@@ -20,12 +21,7 @@ LevenbergMarquardtSummary levenberg_marquardt(const ResidualFunction& f, int m, 
   double cost = 0.5 * w.r.squaredNorm();
   s.initial_cost = cost;
   double radius = o.initial_radius, decrease_factor = 2.0;
-  bool fresh_jacobian = true;  // J and r belong to x
   for (int it = 0; it < o.max_iterations; ++it) {
-    if (!fresh_jacobian) {
-      f(x.data(), w.r.data(), w.J.data());
-      fresh_jacobian = true;
-    }
     w.g.noalias() = w.J.transpose() * w.r;
     // Converged when the gradient projected onto the bounds vanishes.
     if (((x - w.g).cwiseMax(lo).cwiseMin(hi) - x).cwiseAbs().maxCoeff() <= o.gradient_tolerance) {
@@ -52,7 +48,8 @@ LevenbergMarquardtSummary levenberg_marquardt(const ResidualFunction& f, int m, 
     ++s.iterations;
     w.x_new = (x + w.d).cwiseMax(lo).cwiseMin(hi);
     w.step = w.x_new - x;
-    f(w.x_new.data(), w.r_new.data(), nullptr);
+    // The candidate's Jacobian too: most steps are accepted, and it is then the next iteration's.
+    f(w.x_new.data(), w.r_new.data(), w.J_new.data());
     const double new_cost = 0.5 * w.r_new.squaredNorm();
     // The model's decrease for the step taken (projected): -(g.s + s.H.s / 2).
     const double predicted = -(w.g.dot(w.step) + 0.5 * w.step.dot(w.H.selfadjointView<Eigen::Lower>() * w.step));
@@ -62,7 +59,7 @@ LevenbergMarquardtSummary levenberg_marquardt(const ResidualFunction& f, int m, 
       const double rho = actual / predicted;
       x = w.x_new;
       w.r.swap(w.r_new);
-      fresh_jacobian = false;
+      w.J.swap(w.J_new);
       const bool small_change = std::abs(actual) <= o.function_tolerance * cost;
       cost = new_cost;
       radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));

@@ -28,7 +28,7 @@ struct LevenbergMarquardtSummary {
 using ResidualFunction = std::function<void(const double* x, double* r, double* J)>;
 
 struct LevenbergMarquardtWorkspace {
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J, J_new;
   Eigen::MatrixXd H, A;
   Eigen::VectorXd r, r_new, g, rhs, d, x_new, step;
 };
