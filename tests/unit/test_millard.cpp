@@ -3,12 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <random>
 #include <regex>
 #include <sstream>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
+#include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/muscle_path.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/degroote_fregly2016.h"
 #include "cpgait/muscles/millard2012.h"
@@ -218,6 +221,68 @@ TEST(CoordinateLimitForce, SpringAndDampingPastEachLimit) {
   qv[f.coordinate] = q;
   add_passive_generalized_forces(r.model, qv.data(), qdv.data(), tau.data());
   EXPECT_NEAR(tau[f.coordinate], -30 / deg * (q - 5 * deg), 1e-9);
+}
+
+// PathSpring (gait10dof18musc's biarticular spring-damper from gastrocnemius origin to calcaneus):
+// read as OpenSim defines it, its generalized forces are minus the gradient of its elastic energy
+// k/2 max(0, L - L0)^2 (central differences over the path, its conditional point included), and
+// dissipation scales the tension by 1 + c dL/dt.
+TEST(PathSpring, GeneralizedForcesAreTheEnergysGradientAndDissipationScalesThem) {
+  const std::string path = refdata::shared_path("opensim/gait10dof18musc/OutputReference/CMC/subject01_metabolics_path_spring.osim");
+  REQUIRE_REFERENCE(path);
+  const OsimReadResult r = read_osim(path);
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("PathSpring"), std::string::npos) << w;
+  const Model& m = r.model;
+  ASSERT_EQ(m.path_springs.size(), 1u);
+  const PathSpring& s = m.path_springs[0];
+  EXPECT_EQ(s.name, "BiarticularSpringDamper");
+  EXPECT_EQ(s.resting_length_m, 0.4);
+  EXPECT_EQ(s.stiffness_N_per_m, 10000.0);
+  EXPECT_EQ(s.dissipation_s_per_m, 0.01);
+  ASSERT_EQ(s.path.size(), 3u);
+  EXPECT_EQ(s.path[1].kind, PathPoint::Kind::kConditional);
+  EXPECT_EQ(path_spring_tension(s, 0.39, 5.0), 0.0);  // slack: no force, whatever the speed
+  EXPECT_NEAR(path_spring_tension(s, 0.45, 2.0), 10000 * 0.05 * (1 + 0.01 * 2.0), 1e-9);
+
+  const int n = m.num_coordinates();
+  auto energy = [&](const Eigen::VectorXd& q) {
+    KinematicsWorkspace<double> ws(m);
+    forward_kinematics(m, q.data(), ws);
+    const double stretch = std::max(0.0, path_length(m, s, q.data(), ws) - s.resting_length_m);
+    return 0.5 * s.stiffness_N_per_m * stretch * stretch;
+  };
+  const int knee = m.coordinate_index("knee_angle_r"), ankle = m.coordinate_index("ankle_angle_r");
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int stretched = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd q = Eigen::VectorXd::Zero(n), qd = Eigen::VectorXd::Zero(n), tau = Eigen::VectorXd::Zero(n);
+    q[knee] = -0.9 * (u(rng) + 1);  // 0 to -1.8 rad, the conditional point on and off
+    q[ankle] = 0.5 * u(rng);
+    add_passive_generalized_forces(m, q.data(), qd.data(), tau.data());
+    if (energy(q) > 0) ++stretched;
+    for (int c : {knee, ankle}) {
+      const double h = 1e-7;
+      Eigen::VectorXd qp = q, qm = q;
+      qp[c] += h;
+      qm[c] -= h;
+      EXPECT_NEAR(tau[c], -(energy(qp) - energy(qm)) / (2 * h), 1e-4 * (1 + std::abs(tau[c]))) << m.coordinates[c].name;
+    }
+    // Moving: the tension, and so every generalized force, grows by 1 + c dL/dt.
+    qd[knee] = 2.0 * u(rng);
+    qd[ankle] = 3.0 * u(rng);
+    Eigen::VectorXd tau_moving = Eigen::VectorXd::Zero(n);
+    add_passive_generalized_forces(m, q.data(), qd.data(), tau_moving.data());
+    KinematicsWorkspace<double> ws(m);
+    const double dt = 1e-7;
+    Eigen::VectorXd q1 = q + dt * qd, q0 = q - dt * qd;
+    forward_kinematics(m, q1.data(), ws);
+    const double l1 = path_length(m, s, q1.data(), ws);
+    forward_kinematics(m, q0.data(), ws);
+    const double speed = (l1 - path_length(m, s, q0.data(), ws)) / (2 * dt);
+    for (int c : {knee, ankle}) EXPECT_NEAR(tau_moving[c], tau[c] * (1 + s.dissipation_s_per_m * speed), 1e-4 * (1 + std::abs(tau[c])));
+  }
+  EXPECT_GE(stretched, 5);  // the comparisons above included a loaded spring
 }
 
 }  // namespace

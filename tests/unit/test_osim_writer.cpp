@@ -64,6 +64,13 @@ double largest_difference(const Model& a, const Model& b) {
         for (double q = -2; q <= 2; q += 0.25) at(x.path[k].moving_functions[c].value(q) - y.path[k].moving_functions[c].value(q));
     }
   }
+  EXPECT_EQ(a.path_springs.size(), b.path_springs.size());
+  for (std::size_t i = 0; i < a.path_springs.size() && i < b.path_springs.size(); ++i) {
+    const PathSpring &x = a.path_springs[i], &y = b.path_springs[i];
+    at(x.resting_length_m - y.resting_length_m);
+    EXPECT_EQ(x.path.size(), y.path.size()) << x.name;
+    for (std::size_t k = 0; k < x.path.size() && k < y.path.size(); ++k) at((x.path[k].location_m - y.path[k].location_m).norm());
+  }
   return d;
 }
 

@@ -8,6 +8,7 @@
 
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/muscle_path.h"
 #include "cpgait/scaling/scale_model.h"
 #include "test_support.h"
 
@@ -67,4 +68,30 @@ TEST(ScaleModel, ScaledForwardKinematicsIsTheScaledModels) {
       EXPECT_LT((a.body_in_ground[k].rotation - b.body_in_ground[k].rotation).norm(), 1e-14) << m.bodies[k].name;
     }
   }
+}
+
+// A path spring scales as OpenSim's PathSpring::extendPostScale: its points with their bodies, its
+// resting length by its path's length ratio at the default pose (exactly the factor when every body
+// scales by the same factor).
+TEST(ScaleModel, PathSpringsScaleTheirPointsAndRestingLength) {
+  const std::string path = refdata::shared_path("opensim/gait10dof18musc/OutputReference/CMC/subject01_metabolics_path_spring.osim");
+  REQUIRE_REFERENCE(path);
+  const Model m = read_osim(path).model;
+  ASSERT_EQ(m.path_springs.size(), 1u);
+  const Model s = scale_model(m, std::vector<Eigen::Vector3d>(m.bodies.size(), Eigen::Vector3d::Constant(1.1)), false, -1);
+  ASSERT_EQ(s.path_springs.size(), 1u);
+  EXPECT_NEAR(s.path_springs[0].resting_length_m, 1.1 * m.path_springs[0].resting_length_m, 1e-12);
+  for (std::size_t k = 0; k < m.path_springs[0].path.size(); ++k)
+    EXPECT_LT((s.path_springs[0].path[k].location_m - 1.1 * m.path_springs[0].path[k].location_m).norm(), 1e-15);
+  // Uneven factors: the resting length follows the path's own length ratio.
+  std::vector<Eigen::Vector3d> f(m.bodies.size(), Eigen::Vector3d::Ones());
+  f[m.body_index("tibia_r")] = Eigen::Vector3d(1.0, 1.2, 1.0);
+  const Model u = scale_model(m, f, false, -1);
+  const Eigen::VectorXd q0 = m.default_coordinates();
+  KinematicsWorkspace<double> wm(m), wu(u);
+  forward_kinematics(m, q0.data(), wm);
+  forward_kinematics(u, q0.data(), wu);
+  const double ratio = path_length(u, u.path_springs[0], q0.data(), wu) / path_length(m, m.path_springs[0], q0.data(), wm);
+  EXPECT_GT(ratio, 1.01);
+  EXPECT_NEAR(u.path_springs[0].resting_length_m, ratio * m.path_springs[0].resting_length_m, 1e-12);
 }

@@ -1,5 +1,9 @@
 #include "cpgait/dynamics/passive_generalized_forces.h"
 
+#include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/kinematics/motion_subspace.h"
+#include "cpgait/muscles/muscle_path.h"
+
 namespace cpgait {
 namespace {
 
@@ -21,8 +25,26 @@ double coordinate_limit_force(const CoordinateLimitForce& f, double q, double qd
   return -k_up * (q - f.upper_limit) + k_low * (f.lower_limit - q) - f.damping * on * qd;
 }
 
+double path_spring_tension(const PathSpring& s, double length_m, double lengthening_speed_m_s) {
+  const double stretch = length_m > s.resting_length_m ? length_m - s.resting_length_m : 0.0;
+  return s.stiffness_N_per_m * stretch * (1 + s.dissipation_s_per_m * lengthening_speed_m_s);
+}
+
 void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, double* tau) {
   for (const auto& f : model.coordinate_limit_forces) tau[f.coordinate] += coordinate_limit_force(f, q[f.coordinate], qd[f.coordinate]);
+  if (model.path_springs.empty()) return;
+  // A tension T shortening the path: tau = -T dL/dq (its power is -T dL/dt).
+  KinematicsWorkspace<double> ws(model);
+  forward_kinematics(model, q, ws);
+  MotionSubspace S(model);
+  motion_subspace(model, q, ws, S);
+  Eigen::RowVectorXd dL_dq(model.num_coordinates());
+  for (const PathSpring& s : model.path_springs) {
+    double length = 0, speed = 0;
+    path_spring_geometry(model, s, q, qd, ws, S, length, speed, dL_dq);
+    const double tension = path_spring_tension(s, length, speed);
+    for (int c = 0; c < model.num_coordinates(); ++c) tau[c] -= tension * dL_dq[c];
+  }
 }
 
 }  // namespace cpgait

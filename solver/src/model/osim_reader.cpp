@@ -535,7 +535,9 @@ class Reader {
     }
   }
 
-  void read_path(const xml_node& muscle, Muscle& mu) {
+  // A muscle's or a path spring's GeometryPath: its points and wraps.
+  template <typename PathOwner>
+  void read_path(const xml_node& muscle, PathOwner& mu) {
     // Documents before 20000 keep the points in the muscle itself: MusclePointSet, MuscleWrapSet.
     const bool legacy = !muscle.child("GeometryPath") && muscle.child("MusclePointSet");
     const xml_node gp = legacy ? muscle : muscle.child("GeometryPath");
@@ -614,6 +616,10 @@ class Reader {
       if (type == "CoordinateActuator" || type == "PointActuator" || type == "TorqueActuator") continue;
       if (type == "CoordinateLimitForce") {
         read_coordinate_limit_force(n);
+        continue;
+      }
+      if (type == "PathSpring") {
+        read_path_spring(n);
         continue;
       }
       const bool schutte = type == "Schutte1993Muscle" || type == "Schutte1993Muscle_Deprecated";
@@ -712,6 +718,20 @@ class Reader {
   }
 
   // Stiffness per degree and limits in degrees for rotational coordinates, converted to SI here.
+  void read_path_spring(const xml_node& n) {
+    PathSpring ps;
+    ps.name = n.attribute("name").value();
+    ps.resting_length_m = d_.number(n, "resting_length", 0.0, true);
+    ps.stiffness_N_per_m = d_.number(n, "stiffness", 0.0, true);
+    ps.dissipation_s_per_m = d_.number(n, "dissipation", 0.0, true);
+    // As OpenSim (PathSpring::extendFinalizeFromProperties): none may be negative.
+    for (const auto& [field, value] : {std::pair<const char*, double>{"resting_length", ps.resting_length_m},
+                                       {"stiffness", ps.stiffness_N_per_m}, {"dissipation", ps.dissipation_s_per_m}})
+      if (!(value >= 0)) d_.fail(n.child(field), std::string("a PathSpring's ") + field + " cannot be negative");
+    read_path(n, ps);
+    m_.path_springs.push_back(std::move(ps));
+  }
+
   void read_coordinate_limit_force(const xml_node& n) {
     CoordinateLimitForce f;
     f.name = n.attribute("name").value();

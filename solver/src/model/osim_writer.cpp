@@ -205,14 +205,15 @@ class Writer {
           if (n.type() == pugi::node_element) write_joint(n, n.attribute("name").value());
   }
 
-  void write_path(const xml_node& muscle, const Muscle& mu, const Muscle& gmu) {
+  template <typename PathOwner>
+  void write_path(const xml_node& muscle, const PathOwner& mu, const PathOwner& gmu) {
     const bool legacy = !muscle.child("GeometryPath") && muscle.child("MusclePointSet");
     const xml_node gp = legacy ? muscle : muscle.child("GeometryPath");
     std::size_t k = 0;
     for (const auto& p : gp.child(legacy ? "MusclePointSet" : "PathPointSet").child("objects").children()) {
       if (p.type() != pugi::node_element) continue;
       if (k >= mu.path.size() || mu.path[k].name != p.attribute("name").value())
-        fail(p, "the model's path of muscle '" + mu.name + "' does not list this point here");
+        fail(p, "the model's path of '" + mu.name + "' does not list this point here");
       const PathPoint &pp = mu.path[k], &gpp = gmu.path[k];
       ++k;
       if (pp.location_m != gpp.location_m && p.child("location")) write_point_location(p, pp, gpp);
@@ -240,6 +241,10 @@ class Writer {
   void write_forces(const xml_node& root) {
     for (const auto& n : root.child("ForceSet").child("objects").children()) {
       if (n.type() != pugi::node_element) continue;
+      if (std::string(n.name()) == "PathSpring") {
+        write_path_spring(n);
+        continue;
+      }
       const int i = m_.muscle_index(n.attribute("name").value()), gi = g_.muscle_index(n.attribute("name").value());
       if (gi < 0) continue;  // a force cpgait does not model; copied as it is
       if (i < 0) fail(n, "the model has no muscle of this name");
@@ -250,6 +255,20 @@ class Writer {
         set_child_text(n, "tendon_slack_length", number_text(mu.tendon_slack_length_m));
       write_path(n, mu, gmu);
     }
+  }
+
+  void write_path_spring(const xml_node& n) {
+    const std::string name = n.attribute("name").value();
+    auto find = [&](const Model& model) -> const PathSpring* {
+      for (const PathSpring& ps : model.path_springs)
+        if (ps.name == name) return &ps;
+      return nullptr;
+    };
+    const PathSpring *ps = find(m_), *gps = find(g_);
+    if (!gps) return;
+    if (!ps) fail(n, "the model has no path spring of this name");
+    if (ps->resting_length_m != gps->resting_length_m) set_child_text(n, "resting_length", number_text(ps->resting_length_m));
+    write_path(n, *ps, *gps);
   }
 
   bool markers_unchanged() const {

@@ -7,12 +7,13 @@ namespace cpgait {
 // segment rigidly (e . (w x d) = 0 for d along e), so only the joints between A and B, below their
 // common ancestor, contribute: +e . (w_c x x_b + v_c) on B's side, -e . (w_c x x_a + v_c) on A's, plus
 // a moving point's own motion along its body's axes.
-void muscle_path_geometry(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
-                          const MotionSubspace& S, MusclePathGeometry& out) {
-  const int nq = model.num_coordinates(), nb = static_cast<int>(model.bodies.size());
-  // Depth of each body in the tree (ground 0), for the walk to the common ancestor.
-  std::vector<int> depth(nb, 0);
-  for (const Joint& j : model.joints) depth[j.child_body] = depth[j.parent_body] + 1;  // parents come first
+namespace {
+
+// The path's length and dL/dq from its current vertices.
+template <typename PathOwner>
+double length_and_gradient(const Model& model, const PathOwner& owner, const double* q, const KinematicsWorkspace<double>& ws,
+                           const MotionSubspace& S, const std::vector<int>& depth, std::vector<PathVertex<double>>& path,
+                           Eigen::RowVectorXd& dL_dq) {
   auto parent = [&](int body) { return model.joints[model.bodies[body].joint].parent_body; };
   auto add_chain = [&](int body, const Eigen::Vector3d& x, const Eigen::Vector3d& e, double sign, double* row) {
     const Joint& j = model.joints[model.bodies[body].joint];
@@ -25,44 +26,67 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
       if (p.moving_coordinates[a] >= 0)
         row[p.moving_coordinates[a]] += sign * e.dot(R.col(a)) * p.moving_functions[a].derivative(q[p.moving_coordinates[a]]);
   };
-  Eigen::RowVectorXd dL_dq(nq);
-  const Eigen::Map<const Eigen::VectorXd> qdot(qd, nq);
+  current_path(model, owner, q, ws, path);
+  dL_dq.setZero(model.num_coordinates());
+  double length = 0;
+  // A wrap's surface stretch moves with the surface's body, and the path is a geodesic there, so
+  // its tangent points count as points fixed on that body (their sliding changes the length only
+  // to second order).
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const PathVertex<double>& u = path[i];
+    const PathVertex<double>& v = path[i + 1];
+    if (u.wrap >= 0 && v.wrap == u.wrap) {
+      length += u.surface_length_m;
+      continue;
+    }
+    const Eigen::Vector3d d = v.x_ground - u.x_ground;
+    const double n = d.norm();
+    length += n;
+    if (n == 0) continue;
+    const Eigen::Vector3d e = d / n;
+    for (int b = v.body, a = u.body; a != b;) {
+      if (depth[b] >= depth[a]) {
+        add_chain(b, v.x_ground, e, +1.0, dL_dq.data());
+        b = parent(b);
+      } else {
+        add_chain(a, u.x_ground, e, -1.0, dL_dq.data());
+        a = parent(a);
+      }
+    }
+    if (v.point) add_moving(*v.point, e, +1.0, dL_dq.data());
+    if (u.point) add_moving(*u.point, e, -1.0, dL_dq.data());
+  }
+  return length;
+}
+
+// Depth of each body in the tree (ground 0), for the walk to the common ancestor.
+std::vector<int> body_depths(const Model& model) {
+  std::vector<int> depth(model.bodies.size(), 0);
+  for (const Joint& j : model.joints) depth[j.child_body] = depth[j.parent_body] + 1;  // parents come first
+  return depth;
+}
+
+}  // namespace
+
+void muscle_path_geometry(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
+                          const MotionSubspace& S, MusclePathGeometry& out) {
+  const std::vector<int> depth = body_depths(model);
+  Eigen::RowVectorXd dL_dq(model.num_coordinates());
+  const Eigen::Map<const Eigen::VectorXd> qdot(qd, model.num_coordinates());
   std::vector<PathVertex<double>> path;
   for (std::size_t m = 0; m < model.muscles.size(); ++m) {
-    current_path(model, model.muscles[m], q, ws, path);
-    dL_dq.setZero();
-    double length = 0;
-    // A wrap's surface stretch moves with the surface's body, and the path is a geodesic there, so
-    // its tangent points count as points fixed on that body (their sliding changes the length only
-    // to second order).
-    for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-      const PathVertex<double>& u = path[i];
-      const PathVertex<double>& v = path[i + 1];
-      if (u.wrap >= 0 && v.wrap == u.wrap) {
-        length += u.surface_length_m;
-        continue;
-      }
-      const Eigen::Vector3d d = v.x_ground - u.x_ground;
-      const double n = d.norm();
-      length += n;
-      if (n == 0) continue;
-      const Eigen::Vector3d e = d / n;
-      for (int b = v.body, a = u.body; a != b;) {
-        if (depth[b] >= depth[a]) {
-          add_chain(b, v.x_ground, e, +1.0, dL_dq.data());
-          b = parent(b);
-        } else {
-          add_chain(a, u.x_ground, e, -1.0, dL_dq.data());
-          a = parent(a);
-        }
-      }
-      if (v.point) add_moving(*v.point, e, +1.0, dL_dq.data());
-      if (u.point) add_moving(*u.point, e, -1.0, dL_dq.data());
-    }
-    out.length_m[m] = length;
+    out.length_m[m] = length_and_gradient(model, model.muscles[m], q, ws, S, depth, path, dL_dq);
     out.moment_arm_m.row(m) = -dL_dq;
     out.lengthening_speed_m_s[m] = dL_dq.dot(qdot);
   }
+}
+
+void path_spring_geometry(const Model& model, const PathSpring& spring, const double* q, const double* qd,
+                          const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
+                          double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq) {
+  std::vector<PathVertex<double>> path;
+  length_m = length_and_gradient(model, spring, q, ws, S, body_depths(model), path, dL_dq);
+  lengthening_speed_m_s = dL_dq.dot(Eigen::Map<const Eigen::VectorXd>(qd, model.num_coordinates()));
 }
 
 }  // namespace cpgait

@@ -51,6 +51,17 @@ Model scale_muscle_parameters(const Model& scaled, const Model& generic, MuscleS
     ++s.muscles_scaled;
   }
   if (s.muscles_scaled == 0) s.smallest_ratio = s.largest_ratio = 1;
+  // Path springs' resting lengths likewise (OpenSim's PathSpring::extendPostScale).
+  const Eigen::VectorXd q_scaled = scaled.default_coordinates(), q_generic = generic.default_coordinates();
+  KinematicsWorkspace<double> ws_scaled(scaled), ws_generic(generic);
+  forward_kinematics(scaled, q_scaled.data(), ws_scaled);
+  forward_kinematics(generic, q_generic.data(), ws_generic);
+  for (PathSpring& ps : out.path_springs) {
+    const auto g = std::find_if(generic.path_springs.begin(), generic.path_springs.end(), [&](const PathSpring& x) { return x.name == ps.name; });
+    if (g == generic.path_springs.end()) continue;
+    const double pre = path_length(generic, *g, q_generic.data(), ws_generic);
+    if (pre > 0) ps.resting_length_m *= path_length(scaled, ps, q_scaled.data(), ws_scaled) / pre;
+  }
   if (summary) *summary = s;
   return out;
 }

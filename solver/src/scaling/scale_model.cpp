@@ -78,12 +78,15 @@ Model scale_model(const Model& generic, const std::vector<Eigen::Vector3d>& fact
     }
   }
   for (auto& mk : m.markers) mk.location_m = mk.location_m.cwiseProduct(f(mk.body));
-  for (auto& mu : m.muscles)
-    for (auto& p : mu.path) {
+  auto scale_path = [&](std::vector<PathPoint>& path) {
+    for (auto& p : path) {
       p.location_m = p.location_m.cwiseProduct(f(p.body));
       if (p.kind == PathPoint::Kind::kMoving)
         for (int k = 0; k < 3; ++k) p.moving_functions[k] = p.moving_functions[k].scaled(f(p.body)[k]);
     }
+  };
+  for (auto& mu : m.muscles) scale_path(mu.path);
+  for (auto& ps : m.path_springs) scale_path(ps.path);
   for (auto& w : m.wrap_objects) scale_wrap_object(w, f(w.body));
   for (std::size_t b = 1; b < m.bodies.size(); ++b) scale_inertia(m.bodies[b], f(static_cast<int>(b)), !preserve_mass_distribution);
   if (subject_mass_kg > 0) {

@@ -1,12 +1,17 @@
 #pragma once
-// The model's passive forces that act on coordinates directly (OpenSim's CoordinateLimitForce),
-// as functions of the coordinates and their speeds.
+// The model's passive forces as generalized forces: those acting on coordinates directly (OpenSim's
+// CoordinateLimitForce) and path springs (OpenSim's PathSpring), as functions of the coordinates and
+// their speeds.
 #include "cpgait/model/model.h"
 
 namespace cpgait {
 
 // The generalized force (N m or N) of one CoordinateLimitForce at coordinate value q and speed qd.
 double coordinate_limit_force(const CoordinateLimitForce& f, double q, double qd);
+
+// A PathSpring's tension (N) at a path length (m) and lengthening speed (m/s): OpenSim's
+// stiffness * max(0, L - resting) * (1 + dissipation * dL/dt).
+double path_spring_tension(const PathSpring& s, double length_m, double lengthening_speed_m_s);
 
 // Adds every passive generalized force of the model to tau (nq values).
 void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, double* tau);

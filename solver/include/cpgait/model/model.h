@@ -172,6 +172,17 @@ struct CoordinateLimitForce {
   double upper_stiffness = 0, upper_limit = 0, lower_stiffness = 0, lower_limit = 0, damping = 0, transition = 0;
 };
 
+// OpenSim's PathSpring: tension = stiffness * max(0, L - resting_length) * (1 + dissipation * dL/dt)
+// along a path of points and wraps like a muscle's, pulling its ends together.
+struct PathSpring {
+  std::string name;
+  double resting_length_m = 0;
+  double stiffness_N_per_m = 0;
+  double dissipation_s_per_m = 0;
+  std::vector<PathPoint> path;
+  std::vector<PathWrap> wraps;
+};
+
 class Model {
  public:
   std::string name;
@@ -185,6 +196,7 @@ class Model {
   std::vector<WrapObject> wrap_objects;
   std::vector<CoordinateCoupler> couplers;  // in file order; a dependent coordinate is no coupler's independent one
   std::vector<CoordinateLimitForce> coordinate_limit_forces;
+  std::vector<PathSpring> path_springs;
 
   int num_coordinates() const { return static_cast<int>(coordinates.size()); }
   int body_index(std::string_view name) const;

@@ -86,8 +86,9 @@ T current_path_length(const std::vector<PathVertex<T>>& path) {
 // OpenSim's GeometryPath::applyWrapObjects: each wrap, in order, wraps the segment of its range that
 // must wrap (the first that cuts the surface) or else lengthens the path least; with two or more
 // wraps, repeated until the length settles (0.5 mm, at most 8 passes) as OpenSim does.
-template <typename T>
-void current_path(const Model& model, const Muscle& muscle, const T* q, const KinematicsWorkspace<T>& ws,
+// `muscle`: a Muscle or a PathSpring (anything with `path` and `wraps`).
+template <typename T, typename PathOwner>
+void current_path(const Model& model, const PathOwner& muscle, const T* q, const KinematicsWorkspace<T>& ws,
                   std::vector<PathVertex<T>>& path) {
   using std::sqrt;
   using V3 = Eigen::Matrix<T, 3, 1>;
@@ -186,8 +187,8 @@ void current_path(const Model& model, const Muscle& muscle, const T* q, const Ki
   }
 }
 
-template <typename T>
-T path_length(const Model& model, const Muscle& muscle, const T* q, const KinematicsWorkspace<T>& ws) {
+template <typename T, typename PathOwner>
+T path_length(const Model& model, const PathOwner& muscle, const T* q, const KinematicsWorkspace<T>& ws) {
   std::vector<PathVertex<T>> path;
   current_path(model, muscle, q, ws, path);
   return current_path_length(path);
@@ -205,5 +206,10 @@ struct MusclePathGeometry {
 // ws and S from forward_kinematics / motion_subspace at q.
 void muscle_path_geometry(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                           const MotionSubspace& S, MusclePathGeometry& out);
+
+// One path spring's length (m), lengthening speed (m/s) and dL/dq (a row of nq), as the muscles'.
+void path_spring_geometry(const Model& model, const PathSpring& spring, const double* q, const double* qd,
+                          const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
+                          double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq);
 
 }  // namespace cpgait
