@@ -121,7 +121,9 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   const double num_frames_header = number("numframes", true, 0);
   const double num_markers_header = number("nummarkers", true, 0);
   trial.orig_data_rate_hz = number("origdatarate", false, trial.data_rate_hz);
-  trial.orig_data_start_frame = static_cast<int>(number("origdatastartframe", false, 1));
+  const double orig_start = number("origdatastartframe", false, 1);
+  if (!(std::abs(orig_start) <= 1e9)) throw fail(2, "OrigDataStartFrame", "implausible frame number");
+  trial.orig_data_start_frame = static_cast<int>(orig_start);
   if (num_markers_header < 0 || num_markers_header > 100000 || num_frames_header < 0 || num_frames_header > 1e9)
     throw fail(2, "NumMarkers", "implausible NumMarkers/NumFrames");
   auto units_it = header.find("units");

@@ -53,6 +53,17 @@ TEST(Trc, ReadsHeaderAndConvertsMillimetresToMetres) {
   EXPECT_NEAR(t.position_m(2, 0).z(), 4e-3, 1e-15);
 }
 
+// Found by fuzzing (tests/fuzz/regressions/trc): a start frame past int's range was cast regardless.
+TEST(Trc, ImplausibleOrigDataStartFrameIsRefused) {
+  std::string content = two_marker_trc("mm", kRows);
+  const std::size_t at = content.find("\t100\t1\t3\n");
+  ASSERT_NE(at, std::string::npos);
+  content.replace(at, 10, "\t100\t6422681820\t3\n");
+  const InputError e = expect_error(content);
+  EXPECT_EQ(e.field(), "OrigDataStartFrame");
+  EXPECT_EQ(e.line(), 3);
+}
+
 TEST(Trc, UnitsCentimetresAndMetres) {
   EXPECT_NEAR(parse_trc(two_marker_trc("cm", kRows), "t").position_m(0, 1).y(), 0.05, 1e-15);
   EXPECT_NEAR(parse_trc(two_marker_trc("m", kRows), "t").position_m(0, 1).y(), 5.0, 1e-15);
