@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/osim_reader.h"
@@ -283,6 +284,43 @@ TEST(PathSpring, GeneralizedForcesAreTheEnergysGradientAndDissipationScalesThem)
     for (int c : {knee, ankle}) EXPECT_NEAR(tau_moving[c], tau[c] * (1 + s.dissipation_s_per_m * speed), 1e-4 * (1 + std::abs(tau[c])));
   }
   EXPECT_GE(stretched, 5);  // the comparisons above included a loaded spring
+}
+
+// SpringGeneralizedForce: -stiffness (q - rest_length) - viscosity qdot on its coordinate, in the
+// coordinate's own units as OpenSim applies it; a disabled one applies nothing.
+TEST(SpringGeneralizedForce, PullsItsCoordinateTowardsRestAndDamps) {
+  std::string doc = text::read_file(refdata::fixture("models/walker.osim"));
+  const std::size_t at = doc.find("<objects>", doc.find("<ForceSet"));
+  ASSERT_NE(at, std::string::npos);
+  doc.insert(at + 9,
+             "<SpringGeneralizedForce name=\"knee_spring\"><coordinate>knee_angle_r</coordinate><stiffness>50</stiffness>"
+             "<rest_length>0.2</rest_length><viscosity>3</viscosity></SpringGeneralizedForce>"
+             "<SpringGeneralizedForce name=\"off\"><appliesForce>false</appliesForce><coordinate>knee_angle_l</coordinate>"
+             "<stiffness>50</stiffness></SpringGeneralizedForce>");
+  const OsimReadResult r = parse_osim(doc, "walker_spring.osim");
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("SpringGeneralizedForce"), std::string::npos) << w;
+  ASSERT_EQ(r.model.spring_generalized_forces.size(), 1u);
+  const int knee = r.model.coordinate_index("knee_angle_r");
+  std::vector<double> q(r.model.num_coordinates(), 0.0), qd(q.size(), 0.0), tau(q.size(), 0.0);
+  q[knee] = -0.5;
+  qd[knee] = 2.0;
+  q[r.model.coordinate_index("knee_angle_l")] = -0.5;
+  add_passive_generalized_forces(r.model, q.data(), qd.data(), tau.data());
+  EXPECT_NEAR(tau[knee], -50 * (-0.5 - 0.2) - 3 * 2.0, 1e-12);
+  for (std::size_t c = 0; c < tau.size(); ++c) {
+    if (static_cast<int>(c) == knee) continue;
+    EXPECT_EQ(tau[c], 0.0) << r.model.coordinates[c].name;
+  }
+  // An unknown coordinate names the force and the line.
+  std::string bad = doc;
+  bad.replace(bad.find("<coordinate>knee_angle_r"), 24, "<coordinate>knee_angle_x");
+  try {
+    parse_osim(bad, "walker_spring.osim");
+    ADD_FAILURE() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("knee_spring"), std::string::npos) << e.what();
+    EXPECT_GT(e.line(), 0);
+  }
 }
 
 }  // namespace

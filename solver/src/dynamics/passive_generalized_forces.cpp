@@ -32,6 +32,8 @@ double path_spring_tension(const PathSpring& s, double length_m, double lengthen
 
 void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, double* tau) {
   for (const auto& f : model.coordinate_limit_forces) tau[f.coordinate] += coordinate_limit_force(f, q[f.coordinate], qd[f.coordinate]);
+  for (const auto& f : model.spring_generalized_forces)
+    tau[f.coordinate] += -f.stiffness * (q[f.coordinate] - f.rest_length) - f.viscosity * qd[f.coordinate];
   if (model.path_springs.empty()) return;
   // A tension T shortening the path: tau = -T dL/dq (its power is -T dL/dt).
   KinematicsWorkspace<double> ws(model);

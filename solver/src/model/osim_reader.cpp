@@ -622,6 +622,10 @@ class Reader {
         read_path_spring(n);
         continue;
       }
+      if (type == "SpringGeneralizedForce") {
+        read_spring_generalized_force(n);
+        continue;
+      }
       const bool schutte = type == "Schutte1993Muscle" || type == "Schutte1993Muscle_Deprecated";
       if (type != "Thelen2003Muscle" && type != "Millard2012EquilibriumMuscle" && !schutte && type != "RigidTendonMuscle" &&
           type != "DeGrooteFregly2016Muscle") {
@@ -729,8 +733,22 @@ class Reader {
                                        {"stiffness", ps.stiffness_N_per_m}, {"dissipation", ps.dissipation_s_per_m}})
       if (!(value >= 0)) d_.fail(n.child(field), std::string("a PathSpring's ") + field + " cannot be negative");
     read_path(n, ps);
-    m_.path_springs.push_back(std::move(ps));
+    if (applies_force(n)) m_.path_springs.push_back(std::move(ps));
   }
+
+  void read_spring_generalized_force(const xml_node& n) {
+    SpringGeneralizedForce f;
+    f.name = n.attribute("name").value();
+    const std::string coord = d_.text(n, "coordinate");
+    f.coordinate = m_.coordinate_index(coord);
+    if (f.coordinate < 0)
+      d_.fail(n.child("coordinate") ? n.child("coordinate") : n, "SpringGeneralizedForce '" + f.name + "': unknown coordinate '" + coord + "'");
+    read_numbers(n, {{"stiffness", &f.stiffness}, {"rest_length", &f.rest_length}, {"viscosity", &f.viscosity}});
+    if (applies_force(n)) m_.spring_generalized_forces.push_back(f);
+  }
+
+  // A force's isDisabled (3.x) or appliesForce (4.x) switch.
+  bool applies_force(const xml_node& n) const { return !d_.boolean(n, "isDisabled", false) && d_.boolean(n, "appliesForce", true); }
 
   void read_coordinate_limit_force(const xml_node& n) {
     CoordinateLimitForce f;
@@ -749,7 +767,7 @@ class Reader {
     if (f.upper_stiffness < 0 || f.lower_stiffness < 0 || f.damping < 0)
       d_.fail(n, "CoordinateLimitForce '" + f.name + "': stiffnesses and damping must not be negative");
     if (f.lower_limit > f.upper_limit) d_.fail(n.child("lower_limit"), "CoordinateLimitForce '" + f.name + "': lower_limit is above upper_limit");
-    if (!d_.boolean(n, "isDisabled", false) && d_.boolean(n, "appliesForce", true)) m_.coordinate_limit_forces.push_back(f);
+    if (applies_force(n)) m_.coordinate_limit_forces.push_back(f);
   }
 
   // Each named child's number into its field; an absent or empty one leaves the field's default.

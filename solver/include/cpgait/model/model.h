@@ -172,6 +172,14 @@ struct CoordinateLimitForce {
   double upper_stiffness = 0, upper_limit = 0, lower_stiffness = 0, lower_limit = 0, damping = 0, transition = 0;
 };
 
+// OpenSim's SpringGeneralizedForce: -stiffness (q - rest_length) - viscosity qdot on one coordinate,
+// in the coordinate's own units (rad or m; OpenSim does not convert these from degrees).
+struct SpringGeneralizedForce {
+  std::string name;
+  int coordinate = -1;
+  double stiffness = 0, rest_length = 0, viscosity = 0;
+};
+
 // OpenSim's PathSpring: tension = stiffness * max(0, L - resting_length) * (1 + dissipation * dL/dt)
 // along a path of points and wraps like a muscle's, pulling its ends together.
 struct PathSpring {
@@ -197,6 +205,7 @@ class Model {
   std::vector<CoordinateCoupler> couplers;  // in file order; a dependent coordinate is no coupler's independent one
   std::vector<CoordinateLimitForce> coordinate_limit_forces;
   std::vector<PathSpring> path_springs;
+  std::vector<SpringGeneralizedForce> spring_generalized_forces;
 
   int num_coordinates() const { return static_cast<int>(coordinates.size()); }
   int body_index(std::string_view name) const;
