@@ -1,10 +1,14 @@
+// Finds and loads libcpgait_footage.so once (cpgait/video/footage.h).
 #include <dlfcn.h>
 #include <unistd.h>
 
 #include <climits>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "cpgait/video/footage.h"
 

@@ -5,6 +5,7 @@
 #include <cmath>
 
 namespace cpgait {
+
 LevenbergMarquardtSummary levenberg_marquardt(const ResidualFunction& f, int m, const Eigen::VectorXd& lo,
                                               const Eigen::VectorXd& hi, const LevenbergMarquardtOptions& o,
                                               Eigen::VectorXd& x, LevenbergMarquardtWorkspace& w) {
