@@ -273,15 +273,16 @@ class Api {
       return std::nullopt;
     };
     const std::string text = req.has_file("options") ? req.get_file_value("options").content : "";
+    json parsed;
     try {
-      const json parsed = text.empty() ? json::object() : json::parse(text);
-      if (!parsed.is_object()) return refuse(400, "malformed_json", "options: expected a JSON object", "options");
+      parsed = text.empty() ? json::object() : json::parse(text);
     } catch (const json::exception& e) {  // parse errors, and numbers past double's range
       return refuse(400, "malformed_json", std::string("options: ") + e.what(), "options");
     }
+    if (!parsed.is_object()) return refuse(400, "malformed_json", "options: expected a JSON object", "options");
     std::optional<PipelineOptions> options;
     try {
-      options = PipelineOptions::parse(text, "options");
+      options = PipelineOptions::from_json(parsed, "options");
     } catch (const InputError& e) {
       send_input_error(res, e, "options");
       return std::nullopt;

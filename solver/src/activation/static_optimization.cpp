@@ -85,7 +85,7 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     rnea(model, q.data(), qd.data(), qdd.data(), external, dws, tau.data());
     // What the actuators must add to the model's passive forces (OpenSim's SO keeps them applied).
     passive.setZero();
-    add_passive_generalized_forces(model, q.data(), qd.data(), passive.data());
+    add_passive_generalized_forces(model, q.data(), qd.data(), ws, S, passive.data());
     tau -= passive;
     muscle_path_geometry(model, q.data(), qd.data(), ws, S, geometry);
     for (int m = 0; m < nm; ++m) {

@@ -112,7 +112,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
     ws.tau.noalias() += ws.actuator_columns * control;
   }
   if (sys.generalized_forces) ws.tau += *sys.generalized_forces;
-  add_passive_generalized_forces(model, q, u, ws.tau.data());
+  add_passive_generalized_forces(model, q, u, fd.kinematics, fd.S, ws.tau.data());
   xdot.head(nq) = Eigen::Map<const Eigen::VectorXd>(u, nq);
   fd.llt.compute(fd.M);  // callers (CMC, the correction controller, the gait) reuse the factor
   if (!coupled) {

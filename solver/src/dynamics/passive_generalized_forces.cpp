@@ -1,7 +1,5 @@
 #include "cpgait/dynamics/passive_generalized_forces.h"
 
-#include "cpgait/kinematics/forward_kinematics.h"
-#include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait {
@@ -30,16 +28,20 @@ double path_spring_tension(const PathSpring& s, double length_m, double lengthen
   return s.stiffness_N_per_m * stretch * (1 + s.dissipation_s_per_m * lengthening_speed_m_s);
 }
 
-void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, double* tau) {
+namespace {
+
+void add_coordinate_forces(const Model& model, const double* q, const double* qd, double* tau) {
   for (const auto& f : model.coordinate_limit_forces) tau[f.coordinate] += coordinate_limit_force(f, q[f.coordinate], qd[f.coordinate]);
   for (const auto& f : model.spring_generalized_forces)
     tau[f.coordinate] += -f.stiffness * (q[f.coordinate] - f.rest_length) - f.viscosity * qd[f.coordinate];
-  if (model.path_springs.empty()) return;
+}
+
+}  // namespace
+
+void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
+                                    const MotionSubspace& S, double* tau) {
+  add_coordinate_forces(model, q, qd, tau);
   // A tension T shortening the path: tau = -T dL/dq (its power is -T dL/dt).
-  KinematicsWorkspace<double> ws(model);
-  forward_kinematics(model, q, ws);
-  MotionSubspace S(model);
-  motion_subspace(model, q, ws, S);
   Eigen::RowVectorXd dL_dq(model.num_coordinates());
   for (const PathSpring& s : model.path_springs) {
     double length = 0, speed = 0;
@@ -47,6 +49,15 @@ void add_passive_generalized_forces(const Model& model, const double* q, const d
     const double tension = path_spring_tension(s, length, speed);
     for (int c = 0; c < model.num_coordinates(); ++c) tau[c] -= tension * dL_dq[c];
   }
+}
+
+void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, double* tau) {
+  if (model.path_springs.empty()) return add_coordinate_forces(model, q, qd, tau);
+  KinematicsWorkspace<double> ws(model);
+  forward_kinematics(model, q, ws);
+  MotionSubspace S(model);
+  motion_subspace(model, q, ws, S);
+  add_passive_generalized_forces(model, q, qd, ws, S, tau);
 }
 
 }  // namespace cpgait

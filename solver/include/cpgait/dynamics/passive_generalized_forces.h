@@ -2,6 +2,8 @@
 // The model's passive forces as generalized forces: those acting on coordinates directly (OpenSim's
 // CoordinateLimitForce and SpringGeneralizedForce) and path springs (OpenSim's PathSpring), as functions of the coordinates and
 // their speeds.
+#include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/model/model.h"
 
 namespace cpgait {
@@ -15,5 +17,9 @@ double path_spring_tension(const PathSpring& s, double length_m, double lengthen
 
 // Adds every passive generalized force of the model to tau (nq values).
 void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, double* tau);
+// The same with the caller's forward kinematics and motion subspace at q, which path springs need
+// (SO and forward dynamics have them already).
+void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
+                                    const MotionSubspace& S, double* tau);
 
 }  // namespace cpgait
