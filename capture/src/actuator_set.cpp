@@ -43,6 +43,8 @@ std::vector<ActuatorSpec> read_actuators(const std::string& path, std::vector<st
       a.torque_is_global = d.boolean(n, "torque_is_global", true);
       if (a.axis.norm() == 0) d.fail(n.child("axis"), "axis has zero length");
       a.axis.normalize();
+    } else if (type == "PathActuator") {
+      a.kind = ActuatorSpec::Kind::kPath;
     } else {
       if (skipped) skipped->push_back(path + ":" + std::to_string(a.line) + ": " + type + " '" + a.name + "' is not an actuator cpgait applies here");
       continue;

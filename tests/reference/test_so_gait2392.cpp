@@ -169,7 +169,7 @@ TEST(SoGait2392, ForcesBalanceInverseDynamicsThroughTheMomentArms) {
     forward_kinematics(m, q.data(), ws);
     motion_subspace(m, q.data(), ws, S);
     muscle_path_geometry(m, q.data(), qd.data(), ws, S, geometry);
-    acts.generalized_forces(m, ws, S, actuator_columns);
+    acts.generalized_forces(m, q.data(), ws, S, actuator_columns);
     const Eigen::VectorXd tau = geometry.moment_arm_m.transpose() * r.forces.row(static_cast<Eigen::Index>(i)).head(nm).transpose() +
                                 actuator_columns * r.controls.row(static_cast<Eigen::Index>(i)).tail(acts.size()).transpose();
     largest = std::max(largest, (tau - id.generalized_forces.row(row).transpose()).cwiseAbs().maxCoeff());

@@ -7,10 +7,13 @@
 #include <regex>
 #include <sstream>
 
+#include "cpgait/activation/actuators.h"
+#include "cpgait/capture/actuator_set.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/muscles/muscle_path.h"
 #include "cpgait/muscles/activation_dynamics.h"
@@ -286,13 +289,79 @@ TEST(PathSpring, GeneralizedForcesAreTheEnergysGradientAndDissipationScalesThem)
   EXPECT_GE(stretched, 5);  // the comparisons above included a loaded spring
 }
 
+// PathActuator (gait10dof18musc's PlantarFlexAssist, tibia to calcaneus): read from the model's
+// ForceSet with the other actuators, its generalized forces at control 1 are -optimal_force dL/dq
+// (central differences of its path's length) on the coordinates it spans and zero elsewhere.
+TEST(PathActuator, GeneralizedForcesAreTheTensionTimesMinusThePathsGradient) {
+  const std::string path = refdata::shared_path("opensim/gait10dof18musc/OutputReference/CMC/subject01_metabolics_path_actuator.osim");
+  REQUIRE_REFERENCE(path);
+  const OsimReadResult r = read_osim(path);
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("PathActuator"), std::string::npos) << w;
+  const Model& m = r.model;
+  ASSERT_EQ(m.path_actuators.size(), 1u);
+  ASSERT_EQ(m.path_actuators[0].path.size(), 2u);
+  std::vector<ActuatorSpec> specs;
+  for (const ActuatorSpec& a : read_actuators(path))
+    if (a.kind == ActuatorSpec::Kind::kPath) specs.push_back(a);
+  ASSERT_EQ(specs.size(), 1u);
+  EXPECT_EQ(specs[0].name, "PlantarFlexAssist");
+  EXPECT_EQ(specs[0].optimal_force, 10.0);
+  EXPECT_EQ(specs[0].min_control, -std::numeric_limits<double>::infinity());
+  const ResolvedActuators acts(m, specs);
+
+  const int n = m.num_coordinates();
+  const PathActuator& pa = m.path_actuators[0];
+  auto length = [&](const Eigen::VectorXd& q) {
+    KinematicsWorkspace<double> ws(m);
+    forward_kinematics(m, q.data(), ws);
+    return path_length(m, pa, q.data(), ws);
+  };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int ankle = m.coordinate_index("ankle_angle_r");
+  double largest_ankle = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd q = 0.5 * Eigen::VectorXd::NullaryExpr(n, [&] { return u(rng); });
+    KinematicsWorkspace<double> ws(m);
+    MotionSubspace S(m);
+    forward_kinematics(m, q.data(), ws);
+    motion_subspace(m, q.data(), ws, S);
+    Eigen::MatrixXd G(n, 1);
+    acts.generalized_forces(m, q.data(), ws, S, G);
+    for (int c = 0; c < n; ++c) {
+      const double h = 1e-7;
+      Eigen::VectorXd qp = q, qm = q;
+      qp[c] += h;
+      qm[c] -= h;
+      EXPECT_NEAR(G(c, 0), -10.0 * (length(qp) - length(qm)) / (2 * h), 1e-6) << m.coordinates[c].name;
+    }
+    largest_ankle = std::max(largest_ankle, std::abs(G(ankle, 0)));
+  }
+  EXPECT_GT(largest_ankle, 0.1);  // it acts on the ankle (10 N over a few centimetres of moment arm)
+
+  // A PathActuator whose path the model does not hold is refused naming it.
+  ActuatorSpec stray = specs[0];
+  stray.name = "NotInTheModel";
+  try {
+    ResolvedActuators bad(m, {stray});
+    ADD_FAILURE() << "accepted a path actuator with no path";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("NotInTheModel"), std::string::npos) << e.what();
+  }
+}
+
+// The walker fixture's document with `forces` (XML) first in its ForceSet.
+std::string walker_with_forces(const std::string& forces) {
+  std::string doc = text::read_file(refdata::fixture("models/walker.osim"));
+  const std::size_t at = doc.find("<objects>", doc.find("<ForceSet"));
+  if (at == std::string::npos) throw std::runtime_error("walker.osim has no ForceSet objects");
+  return doc.insert(at + 9, forces);
+}
+
 // SpringGeneralizedForce: -stiffness (q - rest_length) - viscosity qdot on its coordinate, in the
 // coordinate's own units as OpenSim applies it; a disabled one applies nothing.
 TEST(SpringGeneralizedForce, PullsItsCoordinateTowardsRestAndDamps) {
-  std::string doc = text::read_file(refdata::fixture("models/walker.osim"));
-  const std::size_t at = doc.find("<objects>", doc.find("<ForceSet"));
-  ASSERT_NE(at, std::string::npos);
-  doc.insert(at + 9,
+  const std::string doc = walker_with_forces(
              "<SpringGeneralizedForce name=\"knee_spring\"><coordinate>knee_angle_r</coordinate><stiffness>50</stiffness>"
              "<rest_length>0.2</rest_length><viscosity>3</viscosity></SpringGeneralizedForce>"
              "<SpringGeneralizedForce name=\"off\"><appliesForce>false</appliesForce><coordinate>knee_angle_l</coordinate>"
@@ -319,6 +388,53 @@ TEST(SpringGeneralizedForce, PullsItsCoordinateTowardsRestAndDamps) {
     ADD_FAILURE() << "expected an InputError";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("knee_spring"), std::string::npos) << e.what();
+    EXPECT_GT(e.line(), 0);
+  }
+}
+
+// ExpressionBasedCoordinateForce: its expression in q and qdot (Lepton's grammar) is the generalized
+// force on its coordinate; one written as a spring equals the SpringGeneralizedForce of the same
+// constants; an expression that does not parse names the file, the line and the token.
+TEST(ExpressionBasedCoordinateForce, AppliesItsExpressionOnItsCoordinate) {
+  const std::string doc = walker_with_forces(
+             "<ExpressionBasedCoordinateForce name=\"knee_expr\"><coordinate>knee_angle_r</coordinate>\n"
+             "<expression>-50*(q-0.2) - 3*qdot + 0.1*max(0, -q)^2</expression></ExpressionBasedCoordinateForce>"
+             "<SpringGeneralizedForce name=\"hip_spring\"><coordinate>hip_flexion_l</coordinate><stiffness>40</stiffness>"
+             "<rest_length>0.1</rest_length><viscosity>2</viscosity></SpringGeneralizedForce>"
+             "<ExpressionBasedCoordinateForce name=\"hip_expr\"><coordinate>hip_flexion_r</coordinate>"
+             "<expression>-k*(q-rest)-2*qdot; k=40; rest=0.1</expression></ExpressionBasedCoordinateForce>");
+  const OsimReadResult r = parse_osim(doc, "walker_expr.osim");
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("ExpressionBased"), std::string::npos) << w;
+  ASSERT_EQ(r.model.expression_based_coordinate_forces.size(), 2u);
+  const Model& m = r.model;
+  const int knee = m.coordinate_index("knee_angle_r"), hip_r = m.coordinate_index("hip_flexion_r"), hip_l = m.coordinate_index("hip_flexion_l");
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    std::vector<double> q(m.num_coordinates(), 0.0), qd(q.size(), 0.0), tau(q.size(), 0.0);
+    for (std::size_t c = 0; c < q.size(); ++c) {
+      q[c] = u(rng);
+      qd[c] = 3 * u(rng);
+    }
+    q[hip_l] = q[hip_r];
+    qd[hip_l] = qd[hip_r];
+    add_passive_generalized_forces(m, q.data(), qd.data(), tau.data());
+    EXPECT_NEAR(tau[knee], -50 * (q[knee] - 0.2) - 3 * qd[knee] + 0.1 * std::pow(std::max(0.0, -q[knee]), 2), 1e-12);
+    EXPECT_NEAR(tau[hip_r], tau[hip_l], 1e-12);
+    for (std::size_t c = 0; c < tau.size(); ++c) {
+      if (static_cast<int>(c) != knee && static_cast<int>(c) != hip_r && static_cast<int>(c) != hip_l) {
+        EXPECT_EQ(tau[c], 0.0);
+      }
+    }
+  }
+  std::string bad = doc;
+  bad.replace(bad.find("3*qdot"), 6, "3*qdt ");
+  try {
+    parse_osim(bad, "walker_expr.osim");
+    ADD_FAILURE() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown variable 'qdt'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("walker_expr.osim"), std::string::npos) << e.what();
     EXPECT_GT(e.line(), 0);
   }
 }

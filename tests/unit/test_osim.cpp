@@ -69,7 +69,7 @@ TEST(Osim, ReadsOpenSim3Documents) {
   </Body>
  </objects></BodySet>
  <MarkerSet><objects><Marker name="knee"><body>thigh</body><location>0 -0.4 0</location></Marker></objects></MarkerSet>
- <ForceSet><objects><ExpressionBasedCoordinateForce name="spring"/></objects></ForceSet>
+ <ForceSet><objects><PrescribedForce name="push"/></objects></ForceSet>
 </Model></OpenSimDocument>)";
   const OsimReadResult r = parse_osim(doc, "old.osim");
   const Model& m = r.model;
@@ -84,7 +84,7 @@ TEST(Osim, ReadsOpenSim3Documents) {
   EXPECT_NEAR(p.x(), 0.4, 1e-12);
   EXPECT_NEAR(p.y(), 1.05, 1e-12);
   ASSERT_EQ(r.warnings.size(), 1u);  // the unsupported force is reported, not dropped
-  EXPECT_NE(r.warnings[0].find("ExpressionBasedCoordinateForce"), std::string::npos);
+  EXPECT_NE(r.warnings[0].find("PrescribedForce"), std::string::npos);
 }
 
 // OpenSim 4 registers NaturalCubicSpline as another name of SimmSpline, so a knee translation given

@@ -71,6 +71,12 @@ double largest_difference(const Model& a, const Model& b) {
     EXPECT_EQ(x.path.size(), y.path.size()) << x.name;
     for (std::size_t k = 0; k < x.path.size() && k < y.path.size(); ++k) at((x.path[k].location_m - y.path[k].location_m).norm());
   }
+  EXPECT_EQ(a.path_actuators.size(), b.path_actuators.size());
+  for (std::size_t i = 0; i < a.path_actuators.size() && i < b.path_actuators.size(); ++i) {
+    const PathActuator &x = a.path_actuators[i], &y = b.path_actuators[i];
+    EXPECT_EQ(x.path.size(), y.path.size()) << x.name;
+    for (std::size_t k = 0; k < x.path.size() && k < y.path.size(); ++k) at((x.path[k].location_m - y.path[k].location_m).norm());
+  }
   return d;
 }
 

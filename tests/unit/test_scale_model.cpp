@@ -34,6 +34,7 @@ TEST(ScaleModel, WrapObjectsScaleAlongTheirOwnAxes) {
   add(WrapObject::Shape::kSphere, turned);
   add(WrapObject::Shape::kEllipsoid, Eigen::Matrix3d::Identity());
   add(WrapObject::Shape::kEllipsoid, turned);
+  add(WrapObject::Shape::kTorus, turned);
   const std::vector<Eigen::Vector3d> f{Eigen::Vector3d::Ones(), Eigen::Vector3d(1.1, 1.2, 1.3)};
   const Model s = scale_model(m, f, false, -1);
   for (const auto& w : s.wrap_objects) EXPECT_TRUE(w.pose.translation_m.isApprox(Eigen::Vector3d(0.11, 0.24, 0.39), 1e-15));
@@ -45,6 +46,9 @@ TEST(ScaleModel, WrapObjectsScaleAlongTheirOwnAxes) {
   // Ellipsoid: each radius by its axis's factor.
   EXPECT_TRUE(s.wrap_objects[2].dimensions_m.isApprox(Eigen::Vector3d(0.011, 0.024, 0.039), 1e-15));
   EXPECT_TRUE(s.wrap_objects[3].dimensions_m.isApprox(Eigen::Vector3d(0.011, 0.026, 0.036), 1e-15));
+  // Torus (axis z): both radii by the mean of its x and y axes' factors, as the cylinder's radius.
+  EXPECT_NEAR(s.wrap_objects[4].inner_radius_m, 0.01 * 1.2, 1e-15);
+  EXPECT_NEAR(s.wrap_objects[4].outer_radius_m, 0.05 * 1.2, 1e-15);
 }
 
 // Forward kinematics given body scales places every body where it is on the model scale_model

@@ -196,7 +196,7 @@ TEST(Actuators, PointAndTorqueActuatorsActThroughTheJacobian) {
   forward_kinematics(m, q.data(), ws);
   motion_subspace(m, q.data(), ws, S);
   Eigen::MatrixXd G(m.num_coordinates(), 2);
-  acts.generalized_forces(m, ws, S, G);
+  acts.generalized_forces(m, q.data(), ws, S, G);
   // Same forces applied as external loads change RNEA's result by exactly -G.
   DynamicsWorkspace dws(m);
   Eigen::VectorXd tau0(m.num_coordinates()), tau1(m.num_coordinates());

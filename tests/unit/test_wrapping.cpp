@@ -3,16 +3,20 @@
 // moment arms against -dL/dq on arm26 (four wrap cylinders), and the models OpenSim's own tests use.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <random>
 
+#include "cpgait/capture/input_error.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/muscles/muscle_path.h"
 #include "cpgait/muscles/wrap_cylinder.h"
 #include "cpgait/muscles/wrap_ellipsoid.h"
 #include "cpgait/muscles/wrap_sphere.h"
+#include "cpgait/muscles/wrap_torus.h"
 #include "test_support.h"
 
 namespace cpgait {
@@ -130,6 +134,82 @@ TEST(WrapSphere, ASegmentUnderTheCentreWrapsOverTheGreatCircle) {
   EXPECT_EQ(wrap_sphere(sphere, tilt * Eigen::Vector3d(-x0, -0.03, 0), tilt * Eigen::Vector3d(x0, -0.03, 0)).status,
             WrapStatus::kNoWrap);
   EXPECT_EQ(wrap_sphere(sphere, Eigen::Vector3d(-x0, 0, 0), Eigen::Vector3d(0.01, 0, 0)).status, WrapStatus::kInsideRadius);
+}
+
+// The torus (OpenSim's WrapTorus): a path threaded through the ring wraps its tube on the side facing
+// the ring's centre. In the plane holding the torus's axis and the path, that is a circle of the inner
+// radius about the centre circle's point: two tangents and an arc, exactly.
+TEST(WrapTorus, APathThroughTheRingWrapsTheTubesInnerSide) {
+  WrapObject torus;
+  torus.shape = WrapObject::Shape::kTorus;
+  torus.inner_radius_m = 0.01;
+  torus.outer_radius_m = 0.05;
+  const double r = 0.01, R = 0.05;
+  for (double phi : {0.0, 0.7, 2.5, -1.9}) {  // the plane's angle about the torus's axis
+    const Eigen::Matrix3d about_z = Eigen::AngleAxisd(phi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Vector3d centre = about_z * Eigen::Vector3d(R, 0, 0);
+    // Above the tube, then below it and further in: the straight segment cuts the tube.
+    const Eigen::Vector3d p1 = about_z * Eigen::Vector3d(R + 0.004, 0, 0.08), p2 = about_z * Eigen::Vector3d(R - 0.002, 0, -0.06);
+    const SegmentWrap<double> w = wrap_torus(torus, p1, p2);
+    ASSERT_TRUE(w.wraps()) << phi;
+    // The planar answer: tangents from each point, and the arc between the tangent points going
+    // round the inner side (towards the torus's axis).
+    const Eigen::Vector2d a(0.004, 0.08), b(-0.002, -0.06);  // (radial offset from the centre circle, z)
+    auto tangent_angle = [&](const Eigen::Vector2d& p, double sign) {
+      return std::atan2(p.y(), p.x()) + sign * std::acos(r / p.norm());
+    };
+    // Going round through the inner side (angle pi): from above (angle ~pi/2) to below (~-pi/2 = 3pi/2).
+    const double t1 = tangent_angle(a, +1), t2 = tangent_angle(b, -1) + 2 * M_PI;
+    EXPECT_NEAR(w.surface_length_m, r * (t2 - t1), 1e-12) << phi;
+    EXPECT_NEAR((w.r1 - p1).norm(), std::sqrt(a.squaredNorm() - r * r), 1e-12) << phi;
+    EXPECT_NEAR((p2 - w.r2).norm(), std::sqrt(b.squaredNorm() - r * r), 1e-12) << phi;
+    for (const Eigen::Vector3d& t : {w.r1, w.r2}) {
+      EXPECT_NEAR((t - centre).norm(), r, 1e-12) << phi;                 // on the tube
+      EXPECT_LT(t.head<2>().norm(), R) << phi;                           // on its inner side
+      EXPECT_NEAR((about_z.transpose() * t).y(), 0, 1e-12) << phi;       // in the plane
+    }
+  }
+  // Through the ring, clear of the tube: no wrap. Constrained to the other half: no wrap.
+  EXPECT_FALSE(wrap_torus(torus, Eigen::Vector3d(0.03, 0, 0.08), Eigen::Vector3d(0.03, 0.001, -0.06)).wraps());
+  torus.quadrant_axis = 0;
+  torus.quadrant_sign = -1;
+  EXPECT_FALSE(wrap_torus(torus, Eigen::Vector3d(R + 0.004, 0, 0.08), Eigen::Vector3d(R - 0.002, 0, -0.06)).wraps());
+  torus.quadrant_sign = 1;
+  EXPECT_TRUE(wrap_torus(torus, Eigen::Vector3d(R + 0.004, 0, 0.08), Eigen::Vector3d(R - 0.002, 0, -0.06)).wraps());
+}
+
+// A WrapTorus in a model: read with its radii (OpenSim's refusal of inner >= outer kept, naming the
+// line), and a path that names it wraps over it.
+TEST(WrapTorus, IsReadAndWrappedByThePathsThatNameIt) {
+  const std::string path = refdata::shared_path("opensim/opensim-core-tests/Analyze/arm26.osim");
+  REQUIRE_REFERENCE(path);
+  std::string doc = text::read_file(path);
+  const std::size_t objects = doc.find("<objects>", doc.rfind("<WrapObjectSet", doc.find("<WrapCylinder name=\"TRI\">")));
+  ASSERT_NE(objects, std::string::npos);
+  doc.insert(objects + 9, "<WrapTorus name=\"ring\"><translation>0 0 0</translation><inner_radius>0.005</inner_radius>"
+                          "<outer_radius>0.02</outer_radius></WrapTorus>");
+  const std::size_t tri = doc.find("<wrap_object>TRI</wrap_object>");
+  ASSERT_NE(tri, std::string::npos);
+  doc.replace(tri, 30, "<wrap_object>ring</wrap_object>");
+  const OsimReadResult r = parse_osim(doc, "arm26_torus.osim");
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("WrapTorus"), std::string::npos) << w;
+  const int ring = r.model.wrap_object_index("ring");
+  ASSERT_GE(ring, 0);
+  EXPECT_EQ(r.model.wrap_objects[ring].inner_radius_m, 0.005);
+  EXPECT_EQ(r.model.wrap_objects[ring].outer_radius_m, 0.02);
+  int named = 0;
+  for (const Muscle& mu : r.model.muscles)
+    for (const PathWrap& pw : mu.wraps) named += pw.wrap_object == ring;
+  EXPECT_EQ(named, 1);
+  std::string bad = doc;
+  bad.replace(bad.find("<outer_radius>0.02"), 18, "<outer_radius>0.004");
+  try {
+    parse_osim(bad, "arm26_torus.osim");
+    ADD_FAILURE() << "accepted a torus whose tube is wider than its ring";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("inner_radius < outer_radius"), std::string::npos) << e.what();
+    EXPECT_GT(e.line(), 0);
+  }
 }
 
 // arm26: three triceps heads and the brachialis over the elbow's cylinder, the long head also over

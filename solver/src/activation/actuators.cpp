@@ -1,6 +1,7 @@
 #include "cpgait/activation/actuators.h"
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait {
 
@@ -17,6 +18,12 @@ ResolvedActuators::ResolvedActuators(const Model& model, std::vector<ActuatorSpe
       r.coordinate = model.coordinate_index(a.coordinate);
       if (r.coordinate < 0) throw InputError(a.file, a.line, "coordinate", "coordinate '" + a.coordinate + "' is not in the model");
     }
+    if (a.kind == ActuatorSpec::Kind::kPath) {
+      for (std::size_t k = 0; k < model.path_actuators.size(); ++k)
+        if (model.path_actuators[k].name == a.name) r.path_actuator = static_cast<int>(k);
+      if (r.path_actuator < 0)
+        throw InputError(a.file, a.line, "PathActuator", "'" + a.name + "' has no path in the model (cpgait reads a PathActuator's path from the model's ForceSet)");
+    }
     r.body = body(a, a.body, "body");
     r.body_a = body(a, a.body_a, "bodyA");
     r.body_b = body(a, a.body_b, "bodyB");
@@ -24,9 +31,10 @@ ResolvedActuators::ResolvedActuators(const Model& model, std::vector<ActuatorSpe
   }
 }
 
-void ResolvedActuators::generalized_forces(const Model& model, const KinematicsWorkspace<double>& ws,
+void ResolvedActuators::generalized_forces(const Model& model, const double* q, const KinematicsWorkspace<double>& ws,
                                            const MotionSubspace& S, Eigen::Ref<Eigen::MatrixXd> columns) const {
   columns.setZero();
+  Eigen::RowVectorXd dL_dq;
   // Adds J^T applied to a spatial force (moment about the ground origin, force) on `body`.
   auto apply = [&](int i, int body, const Eigen::Vector3d& moment, const Eigen::Vector3d& force) {
     for (int b = body; b > 0;) {
@@ -55,6 +63,13 @@ void ResolvedActuators::generalized_forces(const Model& model, const KinematicsW
         const Eigen::Vector3d t = a.optimal_force * axis;
         apply(i, r.body_a, t, Eigen::Vector3d::Zero());
         if (r.body_b > 0) apply(i, r.body_b, -t, Eigen::Vector3d::Zero());
+        break;
+      }
+      case ActuatorSpec::Kind::kPath: {
+        // A tension T along the path: tau = -T dL/dq.
+        double length = 0, speed = 0;
+        path_geometry(model, model.path_actuators[r.path_actuator], q, nullptr, ws, S, length, speed, dL_dq);
+        columns.col(i) = -a.optimal_force * dL_dq.transpose();
         break;
       }
     }

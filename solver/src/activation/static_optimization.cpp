@@ -95,7 +95,7 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
                               : muscles::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m]);
       A.col(m) = geometry.moment_arm_m.row(m).transpose() * f_opt[m];
     }
-    actuators.generalized_forces(model, ws, S, A.rightCols(na));
+    actuators.generalized_forces(model, q.data(), ws, S, A.rightCols(na));
     for (int j = 0; j < na; ++j) f_opt[nm + j] = actuators.spec(j).optimal_force;
     if (coupled) {
       // Moment balance on the free coordinates only: G^T (A x - tau) = 0.

@@ -107,7 +107,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
     ws.tau.noalias() += ws.geometry.moment_arm_m.transpose() * ws.muscle_force_N;
   }
   if (na > 0) {
-    sys.actuators->generalized_forces(model, fd.kinematics, fd.S, ws.actuator_columns);
+    sys.actuators->generalized_forces(model, q, fd.kinematics, fd.S, ws.actuator_columns);
     for (int j = 0; j < na; ++j) ws.actuator_force[j] = control[j] * sys.actuators->spec(j).optimal_force;
     ws.tau.noalias() += ws.actuator_columns * control;
   }

@@ -1,5 +1,6 @@
 #include "cpgait/dynamics/passive_generalized_forces.h"
 
+#include "cpgait/model/expression.h"
 #include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait {
@@ -34,6 +35,10 @@ void add_coordinate_forces(const Model& model, const double* q, const double* qd
   for (const auto& f : model.coordinate_limit_forces) tau[f.coordinate] += coordinate_limit_force(f, q[f.coordinate], qd[f.coordinate]);
   for (const auto& f : model.spring_generalized_forces)
     tau[f.coordinate] += -f.stiffness * (q[f.coordinate] - f.rest_length) - f.viscosity * qd[f.coordinate];
+  for (const auto& f : model.expression_based_coordinate_forces) {
+    const double v[2] = {q[f.coordinate], qd[f.coordinate]};
+    tau[f.coordinate] += f.expression->evaluate(v);
+  }
 }
 
 }  // namespace
@@ -45,7 +50,7 @@ void add_passive_generalized_forces(const Model& model, const double* q, const d
   Eigen::RowVectorXd dL_dq(model.num_coordinates());
   for (const PathSpring& s : model.path_springs) {
     double length = 0, speed = 0;
-    path_spring_geometry(model, s, q, qd, ws, S, length, speed, dL_dq);
+    path_geometry(model, s, q, qd, ws, S, length, speed, dL_dq);
     const double tension = path_spring_tension(s, length, speed);
     for (int c = 0; c < model.num_coordinates(); ++c) tau[c] -= tension * dL_dq[c];
   }

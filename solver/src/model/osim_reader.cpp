@@ -8,6 +8,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/xml_document.h"
+#include "cpgait/model/expression.h"
 #include "cpgait/muscles/degroote_fregly2016.h"
 #include "cpgait/muscles/millard2012.h"
 #include "cpgait/muscles/rigid_tendon_muscle.h"
@@ -147,8 +148,13 @@ class Reader {
       } else {
         d_.fail(w.child("quadrant"), "quadrant must be all, x, -x, y, -y, z or -z");
       }
-      if (o.shape == WrapObject::Shape::kTorus)
-        warn(w, kind + " is not supported yet: paths that name it are computed without it");
+      if (o.shape == WrapObject::Shape::kTorus) {
+        o.inner_radius_m = d_.number(w, "inner_radius", o.inner_radius_m);
+        o.outer_radius_m = d_.number(w, "outer_radius", o.outer_radius_m);
+        // As OpenSim's WrapTorus::extendFinalizeFromProperties.
+        if (!(o.inner_radius_m > 0) || !(o.outer_radius_m > o.inner_radius_m))
+          d_.fail(w, "a WrapTorus needs 0 < inner_radius < outer_radius");
+      }
       m_.wrap_objects.push_back(o);
     }
   }
@@ -541,7 +547,7 @@ class Reader {
     // Documents before 20000 keep the points in the muscle itself: MusclePointSet, MuscleWrapSet.
     const bool legacy = !muscle.child("GeometryPath") && muscle.child("MusclePointSet");
     const xml_node gp = legacy ? muscle : muscle.child("GeometryPath");
-    if (!gp) d_.fail(muscle, "muscle without a GeometryPath");
+    if (!gp) d_.fail(muscle, std::string(muscle.name()) + " without a GeometryPath");
     for (const auto& p : gp.child(legacy ? "MusclePointSet" : "PathPointSet").child("objects").children()) {
       if (p.type() != pugi::node_element) continue;
       PathPoint pp;
@@ -602,8 +608,7 @@ class Reader {
       else if (method == "axial") pw.method = PathWrap::Method::kAxial;
       else if (!method.empty() && method != "hybrid")
         d_.fail(w.child("method"), "method must be hybrid, midpoint or axial");
-      // The torus is not computed; the reader has warned about it once.
-      if (m_.wrap_objects[index].shape != WrapObject::Shape::kTorus) mu.wraps.push_back(pw);
+      mu.wraps.push_back(pw);
     }
   }
 
@@ -612,7 +617,7 @@ class Reader {
       if (n.type() != pugi::node_element) continue;
       const std::string type = n.name();
       // The model's actuators reach SO, CMC and the Forward tool through the actuator set reader
-      // (capture/actuator_set.h), which reads them from the same ForceSet.
+      // (capture/actuator_set.h), which reads them from the same ForceSet (a PathActuator's path is read below).
       if (type == "CoordinateActuator" || type == "PointActuator" || type == "TorqueActuator") continue;
       if (type == "CoordinateLimitForce") {
         read_coordinate_limit_force(n);
@@ -620,6 +625,18 @@ class Reader {
       }
       if (type == "PathSpring") {
         read_path_spring(n);
+        continue;
+      }
+      if (type == "PathActuator") {
+        // Its path here; its optimal force and control range with the other actuators.
+        PathActuator pa;
+        pa.name = n.attribute("name").value();
+        read_path(n, pa);
+        if (applies_force(n)) m_.path_actuators.push_back(std::move(pa));
+        continue;
+      }
+      if (type == "ExpressionBasedCoordinateForce") {
+        read_expression_based_coordinate_force(n);
         continue;
       }
       if (type == "SpringGeneralizedForce") {
@@ -739,12 +756,32 @@ class Reader {
   void read_spring_generalized_force(const xml_node& n) {
     SpringGeneralizedForce f;
     f.name = n.attribute("name").value();
-    const std::string coord = d_.text(n, "coordinate");
-    f.coordinate = m_.coordinate_index(coord);
-    if (f.coordinate < 0)
-      d_.fail(n.child("coordinate") ? n.child("coordinate") : n, "SpringGeneralizedForce '" + f.name + "': unknown coordinate '" + coord + "'");
+    f.coordinate = force_coordinate(n);
     read_numbers(n, {{"stiffness", &f.stiffness}, {"rest_length", &f.rest_length}, {"viscosity", &f.viscosity}});
     if (applies_force(n)) m_.spring_generalized_forces.push_back(f);
+  }
+
+  void read_expression_based_coordinate_force(const xml_node& n) {
+    ExpressionBasedCoordinateForce f;
+    f.name = n.attribute("name").value();
+    f.coordinate = force_coordinate(n);
+    const std::string text = n.child("expression") ? d_.text(n, "expression") : "0.0";  // OpenSim's default
+    try {
+      f.expression = std::make_shared<const Expression>(text, std::vector<std::string>{"q", "qdot"});
+    } catch (const ExpressionError& e) {
+      d_.fail(n.child("expression"), std::string("expression '") + text + "': " + e.what());
+    }
+    if (applies_force(n)) m_.expression_based_coordinate_forces.push_back(std::move(f));
+  }
+
+  // The coordinate a coordinate force names in its <coordinate>; an unknown one names the force.
+  int force_coordinate(const xml_node& n) {
+    const std::string coord = d_.text(n, "coordinate");
+    const int c = m_.coordinate_index(coord);
+    if (c < 0)
+      d_.fail(n.child("coordinate") ? n.child("coordinate") : n,
+              std::string(n.name()) + " '" + n.attribute("name").value() + "': unknown coordinate '" + coord + "'");
+    return c;
   }
 
   // A force's isDisabled (3.x) or appliesForce (4.x) switch.
@@ -753,9 +790,7 @@ class Reader {
   void read_coordinate_limit_force(const xml_node& n) {
     CoordinateLimitForce f;
     f.name = n.attribute("name").value();
-    const std::string coord = d_.text(n, "coordinate");
-    f.coordinate = m_.coordinate_index(coord);
-    if (f.coordinate < 0) d_.fail(n.child("coordinate") ? n.child("coordinate") : n, "CoordinateLimitForce '" + f.name + "': unknown coordinate '" + coord + "'");
+    f.coordinate = force_coordinate(n);
     const double w = m_.coordinates[f.coordinate].is_angle() ? M_PI / 180.0 : 1.0;
     f.upper_limit = w * d_.number(n, "upper_limit", 0.0, true);
     f.lower_limit = w * d_.number(n, "lower_limit", 0.0, true);

@@ -110,6 +110,8 @@ class Writer {
       if (o.radius_m != go.radius_m) set_child_text(w, "radius", number_text(o.radius_m));
       if (o.length_m != go.length_m) set_child_text(w, "length", number_text(o.length_m));
       if (o.dimensions_m != go.dimensions_m) set_child_text(w, "dimensions", vec3_text(o.dimensions_m));
+      if (o.inner_radius_m != go.inner_radius_m) set_child_text(w, "inner_radius", number_text(o.inner_radius_m));
+      if (o.outer_radius_m != go.outer_radius_m) set_child_text(w, "outer_radius", number_text(o.outer_radius_m));
     }
   }
 
@@ -245,6 +247,13 @@ class Writer {
         write_path_spring(n);
         continue;
       }
+      if (std::string(n.name()) == "PathActuator") {
+        const PathActuator *pa = named(m_.path_actuators, n), *gpa = named(g_.path_actuators, n);
+        if (!gpa) continue;
+        if (!pa) fail(n, "the model has no path actuator of this name");
+        write_path(n, *pa, *gpa);
+        continue;
+      }
       const int i = m_.muscle_index(n.attribute("name").value()), gi = g_.muscle_index(n.attribute("name").value());
       if (gi < 0) continue;  // a force cpgait does not model; copied as it is
       if (i < 0) fail(n, "the model has no muscle of this name");
@@ -257,14 +266,16 @@ class Writer {
     }
   }
 
+  // The element of `items` named as the document's force n, or nullptr.
+  template <typename T>
+  static const T* named(const std::vector<T>& items, const xml_node& n) {
+    for (const T& x : items)
+      if (x.name == n.attribute("name").value()) return &x;
+    return nullptr;
+  }
+
   void write_path_spring(const xml_node& n) {
-    const std::string name = n.attribute("name").value();
-    auto find = [&](const Model& model) -> const PathSpring* {
-      for (const PathSpring& ps : model.path_springs)
-        if (ps.name == name) return &ps;
-      return nullptr;
-    };
-    const PathSpring *ps = find(m_), *gps = find(g_);
+    const PathSpring *ps = named(m_.path_springs, n), *gps = named(g_.path_springs, n);
     if (!gps) return;
     if (!ps) fail(n, "the model has no path spring of this name");
     if (ps->resting_length_m != gps->resting_length_m) set_child_text(n, "resting_length", number_text(ps->resting_length_m));

@@ -81,12 +81,29 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
   }
 }
 
-void path_spring_geometry(const Model& model, const PathSpring& spring, const double* q, const double* qd,
-                          const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
-                          double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq) {
+namespace {
+
+template <typename PathOwner>
+void owner_path_geometry(const Model& model, const PathOwner& owner, const double* q, const double* qd,
+                         const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
+                         double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq) {
   std::vector<PathVertex<double>> path;
-  length_m = length_and_gradient(model, spring, q, ws, S, body_depths(model), path, dL_dq);
-  lengthening_speed_m_s = dL_dq.dot(Eigen::Map<const Eigen::VectorXd>(qd, model.num_coordinates()));
+  length_m = length_and_gradient(model, owner, q, ws, S, body_depths(model), path, dL_dq);
+  lengthening_speed_m_s = qd ? dL_dq.dot(Eigen::Map<const Eigen::VectorXd>(qd, model.num_coordinates())) : 0.0;
+}
+
+}  // namespace
+
+void path_geometry(const Model& model, const PathSpring& spring, const double* q, const double* qd,
+                   const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
+                   double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq) {
+  owner_path_geometry(model, spring, q, qd, ws, S, length_m, lengthening_speed_m_s, dL_dq);
+}
+
+void path_geometry(const Model& model, const PathActuator& actuator, const double* q, const double* qd,
+                   const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
+                   double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq) {
+  owner_path_geometry(model, actuator, q, qd, ws, S, length_m, lengthening_speed_m_s, dL_dq);
 }
 
 }  // namespace cpgait

@@ -55,7 +55,9 @@ void scale_wrap_object(WrapObject& w, const Eigen::Vector3d& s) {
     case WrapObject::Shape::kEllipsoid:
       w.dimensions_m = w.dimensions_m.cwiseProduct(axis);
       break;
-    case WrapObject::Shape::kTorus:  // not computed (the reader warns); its radii are not read
+    case WrapObject::Shape::kTorus:  // OpenSim's WrapTorus::extendScale: both radii by the xy average
+      w.inner_radius_m *= 0.5 * (axis[0] + axis[1]);
+      w.outer_radius_m *= 0.5 * (axis[0] + axis[1]);
       break;
   }
 }
@@ -87,6 +89,7 @@ Model scale_model(const Model& generic, const std::vector<Eigen::Vector3d>& fact
   };
   for (auto& mu : m.muscles) scale_path(mu.path);
   for (auto& ps : m.path_springs) scale_path(ps.path);
+  for (auto& pa : m.path_actuators) scale_path(pa.path);
   for (auto& w : m.wrap_objects) scale_wrap_object(w, f(w.body));
   for (std::size_t b = 1; b < m.bodies.size(); ++b) scale_inertia(m.bodies[b], f(static_cast<int>(b)), !preserve_mass_distribution);
   if (subject_mass_kg > 0) {

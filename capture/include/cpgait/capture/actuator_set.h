@@ -1,6 +1,7 @@
 #pragma once
 // Actuators from an OpenSim ForceSet XML (CMC/SO/RRA actuator files, or a model's own ForceSet):
-// CoordinateActuator, PointActuator and TorqueActuator. Muscles are read with the model.
+// CoordinateActuator, PointActuator, TorqueActuator and PathActuator. Muscles, and a PathActuator's path,
+// are read with the model.
 #include <Eigen/Core>
 #include <limits>
 #include <string>
@@ -9,7 +10,7 @@
 namespace cpgait {
 
 struct ActuatorSpec {
-  enum class Kind { kCoordinate, kPoint, kTorque };
+  enum class Kind { kCoordinate, kPoint, kTorque, kPath };  // kPath: the model's PathActuator of this name
   std::string name;
   Kind kind = Kind::kCoordinate;
   double optimal_force = 1.0;  // N or N m per unit control

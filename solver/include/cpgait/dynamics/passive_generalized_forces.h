@@ -1,6 +1,6 @@
 #pragma once
 // The model's passive forces as generalized forces: those acting on coordinates directly (OpenSim's
-// CoordinateLimitForce and SpringGeneralizedForce) and path springs (OpenSim's PathSpring), as functions of the coordinates and
+// CoordinateLimitForce, SpringGeneralizedForce and ExpressionBasedCoordinateForce) and path springs (OpenSim's PathSpring), as functions of the coordinates and
 // their speeds.
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"

@@ -30,6 +30,7 @@ struct Curves;  // cpgait/muscles/rigid_tendon_muscle.h
 namespace degroote_fregly2016 {
 struct Parameters;  // cpgait/muscles/degroote_fregly2016.h
 }
+class Expression;  // cpgait/model/expression.h
 
 // A rigid transform: x_parent = rotation * x_child + translation.
 struct Pose {
@@ -107,6 +108,7 @@ struct WrapObject {
   double radius_m = 1.0;   // cylinder and sphere (OpenSim's default 1 m)
   double length_m = 1.0;   // cylinder: tangent points beyond +-length/2 on both ends mean no wrap
   Eigen::Vector3d dimensions_m = Eigen::Vector3d::Ones();  // ellipsoid radii
+  double inner_radius_m = 0.01, outer_radius_m = 0.05;     // torus: its tube's radius, its centre circle's (OpenSim's defaults)
   int quadrant_axis = -1;  // -1: all quadrants; else 0,1,2 = x,y,z of W
   int quadrant_sign = 0;   // +1 or -1 with quadrant_axis
   bool active = true;
@@ -180,6 +182,14 @@ struct SpringGeneralizedForce {
   double stiffness = 0, rest_length = 0, viscosity = 0;
 };
 
+// OpenSim's ExpressionBasedCoordinateForce: a generalized force on one coordinate given by an
+// expression in the coordinate's value q and speed qdot (its own units: rad or m).
+struct ExpressionBasedCoordinateForce {
+  std::string name;
+  int coordinate = -1;
+  std::shared_ptr<const Expression> expression;  // over the variables {q, qdot}
+};
+
 // OpenSim's PathSpring: tension = stiffness * max(0, L - resting_length) * (1 + dissipation * dL/dt)
 // along a path of points and wraps like a muscle's, pulling its ends together.
 struct PathSpring {
@@ -187,6 +197,14 @@ struct PathSpring {
   double resting_length_m = 0;
   double stiffness_N_per_m = 0;
   double dissipation_s_per_m = 0;
+  std::vector<PathPoint> path;
+  std::vector<PathWrap> wraps;
+};
+
+// OpenSim's PathActuator: its path (points and wraps as a muscle's). Its tension is control *
+// optimal_force, which the actuator reader (cpgait/capture/actuator_set.h) reads with the other actuators.
+struct PathActuator {
+  std::string name;
   std::vector<PathPoint> path;
   std::vector<PathWrap> wraps;
 };
@@ -205,7 +223,9 @@ class Model {
   std::vector<CoordinateCoupler> couplers;  // in file order; a dependent coordinate is no coupler's independent one
   std::vector<CoordinateLimitForce> coordinate_limit_forces;
   std::vector<PathSpring> path_springs;
+  std::vector<PathActuator> path_actuators;
   std::vector<SpringGeneralizedForce> spring_generalized_forces;
+  std::vector<ExpressionBasedCoordinateForce> expression_based_coordinate_forces;
 
   int num_coordinates() const { return static_cast<int>(coordinates.size()); }
   int body_index(std::string_view name) const;

@@ -17,6 +17,7 @@
 #include "cpgait/muscles/wrap_cylinder.h"
 #include "cpgait/muscles/wrap_ellipsoid.h"
 #include "cpgait/muscles/wrap_sphere.h"
+#include "cpgait/muscles/wrap_torus.h"
 
 namespace cpgait {
 
@@ -47,7 +48,7 @@ struct PathVertex {
   T surface_length_m = T(0.0);       // on a wrap's first tangent point: the length over the surface to the second
 };
 
-// One segment over one surface. The sphere and the ellipsoid are computed in doubles: on a Jet their
+// One segment over one surface. The sphere, the ellipsoid and the torus are computed in doubles: on a Jet their
 // tangent points stay fixed on the surface's body, which is how their moment arms are defined (and,
 // for the sphere's geodesic, the exact derivative).
 template <typename T>
@@ -55,7 +56,9 @@ SegmentWrap<T> wrap_segment(const WrapObject& obj, PathWrap::Method method, cons
                             const Eigen::Matrix<T, 3, 1>& b) {
   if (obj.shape == WrapObject::Shape::kCylinder) return wrap_cylinder(obj, a, b);
   auto in_doubles = [&](const Eigen::Vector3d& av, const Eigen::Vector3d& bv) {
-    return obj.shape == WrapObject::Shape::kSphere ? wrap_sphere(obj, av, bv) : wrap_ellipsoid(obj, method, av, bv);
+    return obj.shape == WrapObject::Shape::kSphere  ? wrap_sphere(obj, av, bv)
+           : obj.shape == WrapObject::Shape::kTorus ? wrap_torus(obj, av, bv)
+                                                    : wrap_ellipsoid(obj, method, av, bv);
   };
   if constexpr (std::is_same_v<T, double>) {
     return in_doubles(a, b);
@@ -207,9 +210,13 @@ struct MusclePathGeometry {
 void muscle_path_geometry(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                           const MotionSubspace& S, MusclePathGeometry& out);
 
-// One path spring's length (m), lengthening speed (m/s) and dL/dq (a row of nq), as the muscles'.
-void path_spring_geometry(const Model& model, const PathSpring& spring, const double* q, const double* qd,
-                          const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
-                          double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq);
+// One path spring's or path actuator's length (m), lengthening speed (m/s; 0 when qd is null) and
+// dL/dq (a row of nq), as the muscles'.
+void path_geometry(const Model& model, const PathSpring& spring, const double* q, const double* qd,
+                   const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
+                   double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq);
+void path_geometry(const Model& model, const PathActuator& actuator, const double* q, const double* qd,
+                   const KinematicsWorkspace<double>& ws, const MotionSubspace& S, double& length_m,
+                   double& lengthening_speed_m_s, Eigen::RowVectorXd& dL_dq);
 
 }  // namespace cpgait
