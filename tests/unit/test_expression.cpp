@@ -59,6 +59,9 @@ TEST(Expression, ErrorsNameTheTokenAndItsPlace) {
   EXPECT_EQ(message("+q"), "at character 1: unexpected '+'");
   EXPECT_EQ(message("q; 2"), "at character 3: a subexpression after ';' needs a name: name=expression");
   EXPECT_EQ(message(""), "at character 1: unexpected end of expression");
+  EXPECT_EQ(message(std::string(100000, '(') + "q"), "at character 201: nested more than 200 deep");
+  EXPECT_EQ(message(std::string(300, '-') + "q"), "at character 201: nested more than 200 deep");
+  EXPECT_EQ(eval(std::string(150, '(') + "q" + std::string(150, ')'), 2, 0), 2);
 }
 
 }  // namespace

@@ -124,6 +124,13 @@ class ExpressionParser {
 
   void parse_precedence(int precedence) {
     const Token t = peek();
+    // Each level recurses; a bound keeps hostile input ("((((...") off the end of the stack.
+    struct Depth {
+      int& d;
+      explicit Depth(int& d) : d(++d) {}
+      ~Depth() { --d; }
+    } depth(depth_);
+    if (depth_ > 200) throw ExpressionError(t.offset, "nested more than 200 deep");
     using Op = Expression::Op;
     if (t.type == Token::kNumber) {
       char* stop = nullptr;
@@ -186,6 +193,7 @@ class ExpressionParser {
   const std::map<std::string, std::vector<Expression::Op>>& subexpressions_;
   const std::vector<Token>* tokens_ = nullptr;
   std::size_t end_offset_ = 0, pos_ = 0;
+  int depth_ = 0;
   std::vector<Expression::Op> out_;
 };
 
