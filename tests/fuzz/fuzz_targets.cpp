@@ -28,6 +28,9 @@
 #include "cpgait/capture/json_input.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/contact.h"
+#include "cpgait/dynamics/passive_generalized_forces.h"
+#include "cpgait/kinematics/motion_subspace.h"
+#include "cpgait/muscles/muscle_path.h"
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/fixtures/tag_footage.h"
 #include "cpgait/model/osim_reader.h"
@@ -145,7 +148,18 @@ void fuzz_one(std::string_view target, std::string_view bytes) {
       const C3dFile f = parse_c3d(bytes, "fuzz.c3d");
       ground_reactions(f, c3d_to_opensim(f, C3dVertical::kAuto));
     } else if (target == "osim") {
-      parse_osim(std::string(bytes), "fuzz.osim");
+      // Read, then evaluated at its default pose as every stage evaluates it: paths (wraps
+      // included) and passive forces (expressions included).
+      const Model m = parse_osim(std::string(bytes), "fuzz.osim").model;
+      Eigen::VectorXd q(m.num_coordinates()), qd = Eigen::VectorXd::Zero(m.num_coordinates()), tau = qd;
+      for (int c = 0; c < m.num_coordinates(); ++c) q[c] = m.coordinates[c].default_value;
+      KinematicsWorkspace<double> ws(m);
+      MotionSubspace S(m);
+      MusclePathGeometry g(m);
+      forward_kinematics(m, q.data(), ws);
+      motion_subspace(m, q.data(), ws, S);
+      muscle_path_geometry(m, q.data(), qd.data(), ws, S, g);
+      add_passive_generalized_forces(m, q.data(), qd.data(), ws, S, tau.data());
     } else if (target == "external_loads") {
       parse_external_loads(std::string(bytes), "fuzz.xml");
     } else if (target == "ik_tasks_json") {
@@ -188,13 +202,25 @@ std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
   short_trial.duration_s = 0.2;
   const std::string short_trc = format_trc(fixtures::synthesize_trial(walker(), short_trial).markers, "mm");
   const std::string walker_osim = text::read_file(std::string(fixtures::fixtures_dir()) + "/models/walker.osim");
+  // The walker with the forces and wraps only the fuzzed reader's newer branches read.
+  std::string walker_forces = walker_osim;
+  walker_forces.insert(walker_forces.find("<objects>", walker_forces.find("<ForceSet")) + 9,
+                       "<ExpressionBasedCoordinateForce name=\"e\"><coordinate>knee_angle_r</coordinate>"
+                       "<expression>-k*(q-0.2)-2*max(qdot,0)^2; k=40</expression></ExpressionBasedCoordinateForce>"
+                       "<PathActuator name=\"p\"><GeometryPath><PathPointSet><objects><PathPoint name=\"a\"><socket_parent_frame>/bodyset/femur_r</socket_parent_frame>"
+                       "<location>0 0 0</location></PathPoint><PathPoint name=\"b\"><socket_parent_frame>/bodyset/tibia_r</socket_parent_frame><location>0 -0.1 0</location>"
+                       "</PathPoint></objects></PathPointSet><PathWrapSet><objects><PathWrap><wrap_object>ring</wrap_object></PathWrap></objects>"
+                       "</PathWrapSet></GeometryPath><optimal_force>10</optimal_force></PathActuator>");
+  walker_forces.insert(walker_forces.find("</Body>"),  // the first body's: femur_r
+                       "<WrapObjectSet><objects><WrapTorus name=\"ring\"><translation>0 -0.3 0</translation><inner_radius>0.01"
+                       "</inner_radius><outer_radius>0.05</outer_radius><quadrant>-x</quadrant></WrapTorus></objects></WrapObjectSet>");
   const std::string contact = R"({"ground_height_m": 0, "defaults": {"radius_m": 0.03, "stiffness": 2e6},
     "spheres": [{"name": "heel_r", "body": "foot_r", "location_m": [0, -0.02, 0]}, {"body": "foot_l", "location_m": [0.1, -0.02, 0]}]})";
   return {
       {"trc", {trc, "PathFileType\t4\n"}},
       {"storage", {"x\nversion=1\nnRows=1\nnColumns=2\nendheader\ntime\ta\n0\t1\n", "endheader\n"}},
       {"c3d", {format_c3d_z_up(trial), std::string(512, '\0')}},
-      {"osim", {walker_osim, "<Model>"}},
+      {"osim", {walker_osim, walker_forces, "<Model>"}},
       {"external_loads", {"<ExternalLoads><objects><ExternalForce/></objects></ExternalLoads>"}},
       {"ik_tasks_json", {R"({"markers": {"R.ASIS": 2}})", "{"}},
       {"scale_setup", {"<OpenSimDocument><ScaleTool><mass>-5</mass></ScaleTool></OpenSimDocument>"}},
