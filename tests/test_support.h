@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <sys/wait.h>
 #include <cstdlib>
@@ -77,6 +78,20 @@ inline int required_column(const Storage& s, const std::string& label) {
   const int c = s.column(label);
   if (c < 0) throw std::runtime_error("no column '" + label + "' in " + (s.name.empty() ? std::string("the table") : s.name));
   return c;
+}
+
+// Pearson's correlation of two equally long series.
+inline double correlation(const std::vector<double>& a, const std::vector<double>& b) {
+  const double n = static_cast<double>(a.size());
+  double ma = 0, mb = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) ma += a[i] / n, mb += b[i] / n;
+  double sab = 0, saa = 0, sbb = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    sab += (a[i] - ma) * (b[i] - mb);
+    saa += (a[i] - ma) * (a[i] - ma);
+    sbb += (b[i] - mb) * (b[i] - mb);
+  }
+  return sab / std::sqrt(saa * sbb + 1e-300);
 }
 
 // Per column both tables have (time aside): the RMS difference and the reference's peak |value| over

@@ -1,5 +1,6 @@
 #include "cpgait/capture/cmc_setup.h"
 
+#include <algorithm>
 #include <filesystem>
 
 #include "cpgait/capture/input_error.h"
@@ -81,6 +82,32 @@ const ControlBounds* ControlSetSpec::find(const std::string& actuator) const {
   return defaults ? &*defaults : nullptr;
 }
 
+namespace {
+
+// OpenSim's ControlLinear::getControlValue over one node list: steps take the next node's value;
+// otherwise linear between nodes and, with extrapolate, past the ends along the end segments.
+double node_value(const std::vector<double>& t, const std::vector<double>& v, double at, bool use_steps, bool extrapolate) {
+  const std::size_t n = t.size();
+  if (n == 1) return v[0];
+  auto line = [&](std::size_t i) { return t[i + 1] == t[i] ? v[i] : v[i] + (v[i + 1] - v[i]) * (at - t[i]) / (t[i + 1] - t[i]); };
+  if (at < t[0]) return !use_steps && extrapolate ? line(0) : v[0];
+  if (at >= t[n - 1]) return at > t[n - 1] && !use_steps && extrapolate ? line(n - 2) : v[n - 1];
+  const std::size_t i = static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), at) - t.begin()) - 1;
+  if (use_steps) return at == t[i] ? v[i] : v[i + 1];
+  return line(i);
+}
+
+}  // namespace
+
+double ControlBounds::min_at(double t_s) const {
+  return min_node_times_s.empty() ? min : node_value(min_node_times_s, min_node_values, t_s, use_steps, extrapolate);
+}
+
+double ControlBounds::max_at(double t_s) const {
+  // As OpenSim: the max nodes count only with min nodes beside them.
+  return min_node_times_s.empty() || max_node_times_s.empty() ? max : node_value(max_node_times_s, max_node_values, t_s, use_steps, extrapolate);
+}
+
 ControlSetSpec read_control_set(const std::string& path) {
   const auto d = xml::Document::load_file(path);
   pugi::xml_node root = d.doc().document_element();
@@ -94,10 +121,17 @@ ControlSetSpec read_control_set(const std::string& path) {
     b.max = d.number(c, "default_max", 1.0);
     if (b.min > b.max) d.fail(c, "default_min is above default_max");
     b.use_steps = d.boolean(c, "use_steps", true);
-    for (const auto& n : c.child("x_nodes").children("ControlLinearNode")) {
-      b.node_times_s.push_back(d.number(n, "t", 0.0, true));
-      b.node_values.push_back(d.number(n, "value", 0.0, true));
-    }
+    b.extrapolate = d.boolean(c, "extrapolate", true);
+    auto nodes = [&](const char* tag, std::vector<double>& times, std::vector<double>& values) {
+      for (const auto& n : c.child(tag).children("ControlLinearNode")) {
+        times.push_back(d.number(n, "t", 0.0, true));
+        values.push_back(d.number(n, "value", 0.0, true));
+        if (times.size() > 1 && !(times.back() >= times[times.size() - 2])) d.fail(n, std::string(tag) + " times must not decrease");
+      }
+    };
+    nodes("x_nodes", b.node_times_s, b.node_values);
+    nodes("min_nodes", b.min_node_times_s, b.min_node_values);
+    nodes("max_nodes", b.max_node_times_s, b.max_node_values);
     return b;
   };
   ControlSetSpec spec;

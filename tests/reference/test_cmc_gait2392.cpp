@@ -47,19 +47,6 @@ double rms_of_column(const Storage& s, int col, double from_s) {
   return std::sqrt(sum / std::max(1, n));
 }
 
-double correlation(const std::vector<double>& a, const std::vector<double>& b) {
-  const double n = static_cast<double>(a.size());
-  double ma = 0, mb = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) ma += a[i] / n, mb += b[i] / n;
-  double sab = 0, saa = 0, sbb = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    sab += (a[i] - ma) * (b[i] - mb);
-    saa += (a[i] - ma) * (a[i] - ma);
-    sbb += (b[i] - mb) * (b[i] - mb);
-  }
-  return sab / std::sqrt(saa * sbb + 1e-300);
-}
-
 // What a CMC run on subject01 gives next to OpenSim's published run (OutputReference/ResultsCMC).
 struct VersusOpenSim {
   int coordinates_worse = 0;
@@ -127,7 +114,7 @@ VersusOpenSim compare_with_opensim(const Model& m, const ComputedMuscleControlRe
       const double w = (t - r.time_s[j1 - 1]) / (r.time_s[j1] - r.time_s[j1 - 1]);
       ours.push_back((1 - w) * r.muscle_force_N(j1 - 1, k) + w * r.muscle_force_N(j1, k));
     }
-    if (peak > 0.1 * m.muscles[k].max_isometric_force_N) v.correlations.push_back({correlation(ours, theirs), m.muscles[k].name});
+    if (peak > 0.1 * m.muscles[k].max_isometric_force_N) v.correlations.push_back({refdata::correlation(ours, theirs), m.muscles[k].name});
   }
   std::sort(v.correlations.begin(), v.correlations.end());
   v.correlated = std::count_if(v.correlations.begin(), v.correlations.end(), [](const auto& c) { return c.first >= 0.9; });

@@ -4,8 +4,10 @@
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <fstream>
 
 #include "cpgait/activation/computed_muscle_control.h"
+#include "cpgait/capture/cmc_setup.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/dormand_prince.h"
 #include "cpgait/dynamics/forward_simulation.h"
@@ -311,6 +313,41 @@ TEST(ComputedMuscleControl, TracksSyntheticWalkerKinematics) {
     EXPECT_EQ(cmc_states_table(r).labels.size(), 1 + 2 * m.num_coordinates() + 2 * m.muscles.size());
     EXPECT_NE(cmc_average_residuals_text(r).find("pelvis_tx_reserve average"), std::string::npos);
   }
+}
+
+// A constraints file's min_nodes and max_nodes, read as OpenSim's ControlLinear reads them: linear
+// between nodes and, with extrapolate, past the ends; with steps, the next node's value; without
+// nodes, default_min and default_max.
+TEST(ControlBounds, FollowTheirNodesAsOpenSimsControlLinear) {
+  const std::string dir = refdata::temp_dir("control_bounds");
+  const std::string path = dir + "/constraints.xml";
+  auto node = [](double t, double v) { return "<ControlLinearNode><t>" + std::to_string(t) + "</t><value>" + std::to_string(v) + "</value></ControlLinearNode>"; };
+  std::ofstream(path) << "<OpenSimDocument Version=\"30000\"><ControlSet><objects>"
+                         "<ControlLinear name=\"assist.excitation\"><use_steps>false</use_steps><default_min>-3</default_min><default_max>3</default_max>"
+                         "<min_nodes>" + node(1, 0) + node(2, 1) + node(3, 1) + "</min_nodes>"
+                         "<max_nodes>" + node(1, 2) + node(2, 4) + "</max_nodes></ControlLinear>"
+                         "<ControlLinear name=\"stepped.excitation\"><use_steps>true</use_steps>"
+                         "<min_nodes>" + node(1, 0.1) + node(2, 0.2) + "</min_nodes><max_nodes>" + node(1, 0.5) + node(2, 0.6) + "</max_nodes></ControlLinear>"
+                         "<ControlLinear name=\"plain.excitation\"><default_min>0.02</default_min><default_max>0.9</default_max></ControlLinear>"
+                         "</objects></ControlSet></OpenSimDocument>";
+  const ControlSetSpec c = read_control_set(path);
+  const ControlBounds* a = c.find("assist");
+  ASSERT_NE(a, nullptr);
+  EXPECT_DOUBLE_EQ(a->min_at(1.5), 0.5);
+  EXPECT_DOUBLE_EQ(a->min_at(2.5), 1.0);
+  EXPECT_DOUBLE_EQ(a->min_at(0.5), -0.5);  // extrapolated along the first segment
+  EXPECT_DOUBLE_EQ(a->max_at(1.25), 2.5);
+  EXPECT_DOUBLE_EQ(a->max_at(2.5), 5.0);   // and past the last
+  const ControlBounds* s = c.find("stepped");
+  ASSERT_NE(s, nullptr);
+  EXPECT_DOUBLE_EQ(s->min_at(1.0), 0.1);   // at a node, its value
+  EXPECT_DOUBLE_EQ(s->min_at(1.2), 0.2);   // between, the next one's
+  EXPECT_DOUBLE_EQ(s->min_at(0.5), 0.1);   // steps do not extrapolate
+  EXPECT_DOUBLE_EQ(s->max_at(9.0), 0.6);
+  const ControlBounds* p = c.find("plain");
+  ASSERT_NE(p, nullptr);
+  EXPECT_DOUBLE_EQ(p->min_at(7.0), 0.02);
+  EXPECT_DOUBLE_EQ(p->max_at(7.0), 0.9);
 }
 
 TEST(ComputedMuscleControl, RefusesTooLittleDataAndUnknownTasks) {

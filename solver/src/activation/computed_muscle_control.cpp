@@ -11,6 +11,7 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
+#include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/muscle_model.h"
@@ -102,30 +103,33 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
   }
 
-  // Control ranges: the constraints file's, within the muscle's own range.
+  // Control ranges: the constraints file's (at each window's start, as OpenSim evaluates its
+  // min_nodes and max_nodes), within an actuator's own range; a muscle's replace its own.
   Eigen::VectorXd u_min(nx), u_max(nx);
   std::vector<bool> steps(nx, true);
-  for (int m = 0; m < nm; ++m) {
-    u_min[m] = model.muscles[m].min_control;
-    u_max[m] = model.muscles[m].max_control;
-    if (const ControlBounds* b = constraints ? constraints->find(model.muscles[m].name) : nullptr) {
-      u_min[m] = b->min;
-      u_max[m] = b->max;
-    }
-  }
+  std::vector<const ControlBounds*> bounds(nx, nullptr);
+  for (int m = 0; m < nm; ++m) bounds[m] = constraints ? constraints->find(model.muscles[m].name) : nullptr;
   for (int j = 0; j < na; ++j) {
-    u_min[nm + j] = actuators.spec(j).min_control;
-    u_max[nm + j] = actuators.spec(j).max_control;
     steps[nm + j] = false;
     // Only a control named in the file constrains an actuator: the defaults are written for muscles.
     const ControlBounds* b = constraints ? constraints->find(actuators.spec(j).name) : nullptr;
     if (b && constraints->defaults && b == &*constraints->defaults) b = nullptr;
-    if (b) {
-      u_min[nm + j] = std::max(u_min[nm + j], b->min);
-      u_max[nm + j] = std::min(u_max[nm + j], b->max);
-      steps[nm + j] = b->use_steps;
-    }
+    if (b) steps[nm + j] = b->use_steps;
+    bounds[nm + j] = b;
   }
+  auto control_ranges_at = [&](double time) {
+    for (int m = 0; m < nm; ++m) {
+      const ControlBounds* b = bounds[m];
+      u_min[m] = b ? b->min_at(time) : model.muscles[m].min_control;
+      u_max[m] = std::max(u_min[m], b ? b->max_at(time) : model.muscles[m].max_control);
+    }
+    for (int j = 0; j < na; ++j) {
+      const ControlBounds* b = bounds[nm + j];
+      u_min[nm + j] = std::max(actuators.spec(j).min_control, b ? b->min_at(time) : -std::numeric_limits<double>::infinity());
+      u_max[nm + j] = std::max(u_min[nm + j], std::min(actuators.spec(j).max_control, b ? b->max_at(time) : std::numeric_limits<double>::infinity()));
+    }
+  };
+  control_ranges_at(t_begin);
 
   // Contact spheres without measured loads: the ground is placed under the recorded feet, so that
   // the lowest sphere over the trial presses in as far as half the body weight presses one sphere.
@@ -170,7 +174,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
 
   Eigen::VectorXd excitation(nm), control_prev = Eigen::VectorXd::Zero(na), control_new(na), control_now(na);
   Eigen::MatrixXd A(nq, nx), Minv;
-  Eigen::VectorXd b(nq), lo(nx), hi(nx), sol, lambda, f_opt(nm), f_pass(nm), a_lo(nm), a_hi(nm), qdd_des(nq);
+  Eigen::VectorXd b(nq), lo(nx), hi(nx), sol, lambda, f_opt(nm), f_pass(nm), a_lo(nm), a_hi(nm), qdd_des(nq), passive(nq);
   // Rigid tendons: fibre length and velocity from the path at the predicted state, where the forces
   // are solved. Compliant tendons: the path length now and at the window's end.
   Eigen::VectorXd path_length(nm), path_speed(nm), path_start(nm), path_end(nm);
@@ -226,14 +230,20 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       // Thelen's force-velocity curve scales with activation, so the force is not linear in it: the
       // bounds are the forces at the reachable activations themselves (Millard's is linear; the same
       // code serves both).
-      lo[m] = (muscles::rigid_tendon_active_force(mu, a_lo[m], L, V) + f_pass[m]) / f_opt[m];
-      hi[m] = (muscles::rigid_tendon_active_force(mu, a_hi[m], L, V) + f_pass[m]) / f_opt[m];
+      // A muscle cannot push: where fibre damping makes the passive part negative (Millard's, while
+      // shortening), the total is held at zero, as the dynamics hold it.
+      lo[m] = std::max(0.0, muscles::rigid_tendon_active_force(mu, a_lo[m], L, V) + f_pass[m]) / f_opt[m];
+      hi[m] = std::max(0.0, muscles::rigid_tendon_active_force(mu, a_hi[m], L, V) + f_pass[m]) / f_opt[m];
     }
     A.rightCols(na) = ws.actuator_columns;
     lo.tail(na) = u_min.tail(na);
     hi.tail(na) = u_max.tail(na);
-    // M qdd = A x - bias  with  bias = C + G - J^T f_ext.
-    const Eigen::VectorXd& bias = fd.bias;
+    // M qdd = A x + tau_passive - bias  with  bias = C + G - J^T f_ext: the model's own passive
+    // forces (coordinate limits, springs, path springs) carry their share before the actuators.
+    const double* qy = coupled ? ws.x_coupled.data() : y.data();
+    passive.setZero();
+    add_passive_generalized_forces(model, qy, qy + nq, fd.kinematics, fd.S, passive.data());
+    const Eigen::VectorXd bias = fd.bias - passive;
     DualNewtonSummary s;
     if (all_tracked) {
       b = fd.M * qdd_des + bias;
@@ -337,7 +347,9 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       x.head(nq) = qd_i;
       x.segment(nq, nq) = ud_i;
       if (coupled) assemble_coordinate_constraints(model, x.data(), x.data() + nq);
-      set_equilibrium_fibers(t);
+      // The muscles keep their states, as OpenSim's CMCTool keeps its initial-state computation's: a
+      // fibre re-equilibrated here jumps in force (gait10dof18musc's soleus with Thelen muscles:
+      // 630 -> 1370 N at once), and at 5 ms windows the stiff ankle never settled from it.
       reset_done = true;
     }
     const double tf = t + T;
@@ -352,6 +364,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     x_pred = x;
     x_pred.head(nq) = qd_f - (qd_i - x.head(nq));
     x_pred.segment(nq, nq) = ud_f - (ud_i - x.segment(nq, nq));
+    control_ranges_at(t);
     for (int m = 0; m < nm; ++m) {
       const double a = x[sys.activation_index(m)];
       a_lo[m] = thelen_activation_after(model.muscles[m], a, u_min[m], T);

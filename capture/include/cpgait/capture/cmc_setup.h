@@ -24,6 +24,11 @@ struct ControlBounds {
   double min = 0, max = 1;
   bool use_steps = true;  // piecewise constant (muscles); false: linear between nodes
   std::vector<double> node_times_s, node_values;  // x_nodes, when the file carries a control history
+  // min_nodes / max_nodes: bounds that change in time (a constraints file's); none: min and max.
+  std::vector<double> min_node_times_s, min_node_values, max_node_times_s, max_node_values;
+  bool extrapolate = true;  // linear past the first and last nodes (OpenSim's ControlLinear, without steps)
+  double min_at(double t_s) const;  // OpenSim's getControlValueMin / Max
+  double max_at(double t_s) const;
 };
 struct ControlSetSpec {
   std::optional<ControlBounds> defaults;

@@ -4,7 +4,8 @@
 //  1. PD task accelerations for each tracked coordinate (OpenSim's CMC_Joint):
 //       qdd* = ka qdd_d(t+T) + kv (u_d(t) - u(t)) + kp (q_d(t) - q(t)).
 //  2. Forces at t + T that produce exactly those accelerations on the state predicted for t + T
-//     (the desired path at t + T plus the current errors; external loads at t + T), minimising
+//     (the desired path at t + T plus the current errors; external loads at t + T; the model's
+//     own passive forces, such as coordinate limits and path springs, counted), minimising
 //       sum_muscles (F / F_opt)^2 + sum_actuators control^2,
 //     F_opt a muscle's force at full activation with a stiff tendon (OpenSim's weighting), each
 //     muscle force limited to what it can reach by t + T from its current state: the muscle's
@@ -17,7 +18,8 @@
 //     controlled), muscle excitations held (OpenSim's step controls), actuator controls ramped.
 // The run starts settle_s before the first output time so activations are in equilibrium there
 // (OpenSim starts 0.03 s early as well); at the first output time q and u are reset to the desired
-// values. External forces: measured loads (GRF) when given, else contact spheres, else none.
+// values, the muscles keeping their states. External forces: measured loads (GRF) when given, else
+// contact spheres, else none.
 #include <Eigen/Core>
 #include <optional>
 #include <string>
