@@ -1,5 +1,7 @@
 #include "cpgait/capture/storage.h"
 
+#include <charconv>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -155,13 +157,17 @@ std::string format_storage(const Storage& table, int digits) {
   out += "endheader\n";
   for (std::size_t c = 0; c < table.labels.size(); ++c) out += (c ? "\t" : "") + table.labels[c];
   out += "\n";
+  // std::to_chars writes what printf's %.*g writes, without its locale and format parsing (a
+  // tenth of CMC's run time went to snprintf here).
   char buf[64];
+  out.reserve(out.size() + static_cast<std::size_t>(table.num_rows()) * static_cast<std::size_t>(table.num_columns()) * (digits + 8));
   for (int r = 0; r < table.num_rows(); ++r) {
     for (int c = 0; c < table.num_columns(); ++c) {
-      std::snprintf(buf, sizeof buf, c ? "\t%.*g" : "%.*g", digits, table.data(r, c));
-      out += buf;
+      if (c) out += '\t';
+      const auto end = std::to_chars(buf, buf + sizeof buf, table.data(r, c), std::chars_format::general, digits).ptr;
+      out.append(buf, end);
     }
-    out += "\n";
+    out += '\n';
   }
   return out;
 }
