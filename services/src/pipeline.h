@@ -20,6 +20,7 @@ struct PipelineOptions {
 
   std::string model_id;               // "model": server only, which uploaded model
   std::string scale_muscles_from_id;  // "scale_muscles_from": server only, the generic model
+  std::string activation = "so";      // "activation": the activation stage that runs ["so"]
   std::vector<std::string> stages;    // "stages": the selectable stages to run [all of them]
   std::optional<std::pair<double, double>> time_range_s;  // "time_range" [the whole trial]
   nlohmann::json inputs = nlohmann::json::object();        // "inputs": cpgait run only, what it ran on
@@ -27,6 +28,8 @@ struct PipelineOptions {
 
   const StageTable& table() const { return *table_; }
   bool wants(const std::string& stage) const;
+  // A stage's need by name: "activation" is the activation stage the options pick.
+  std::string resolve_need(const std::string& need) const { return need == "activation" ? activation : need; }
   // Whether the stage runs on this trial: it applies to the inputs and, if selectable, is wanted.
   bool runs(const Stage& stage, const TrialInputs& inputs) const;
   // Sets one option of a stage, checked as if the document had it (InputError names "<stage>.<key>").

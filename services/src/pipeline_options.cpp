@@ -11,6 +11,13 @@ using nlohmann::json;
 
 namespace {
 
+std::vector<std::string> activation_methods(const StageTable& table) {
+  std::vector<std::string> names;
+  for (const Stage* s : table)
+    if (!s->activation_method().empty()) names.push_back(s->activation_method());
+  return names;
+}
+
 std::vector<std::string> selectable_stages(const StageTable& table) {
   std::vector<std::string> names;
   for (const Stage* s : table)
@@ -37,9 +44,11 @@ void read_stages(const json& v, PipelineOptions& o, const OptionPath& p) {
     o.stages.push_back(s.get<std::string>());
   }
   for (const std::string& name : o.stages)
-    for (const std::string& need : find_stage(name, o.table())->needs())
+    for (const std::string& named : find_stage(name, o.table())->needs()) {
+      const std::string need = o.resolve_need(named);
       if (const Stage* n = find_stage(need, o.table()); !n || (n->selectable() && !o.wants(need)))
-        p.fail("stages", "stage '" + name + "' needs '" + need + "'");
+        p.fail("stages", "stage '" + name + "' needs '" + need + "'" + (named == need ? "" : " (the activation)"));
+    }
 }
 
 void read_time_range(const json& t, PipelineOptions& o, const OptionPath& p) {
@@ -55,6 +64,10 @@ OptionFields<PipelineOptions> top_level_fields(const StageTable& table) {
   f.text("scale_muscles_from", &P::scale_muscles_from_id,
          "server only: the uploaded generic model the trial's model was scaled from; fibre and tendon lengths are then "
          "scaled by each path's length ratio, as OpenSim's ScaleTool does (cpgait run --scale-muscles-from)");
+  // Read before "stages" (keys are read in order), which checks needs against it.
+  f.choice("activation", &P::activation, activation_methods(table),
+           "how muscle activity is estimated for the CPG: static optimization's activations (so) or computed muscle "
+           "control's excitations (cmc, as the seed method; the reproduced gait then uses compliant tendons)");
   f.add({"stages", stages_field_schema(table), read_stages, [](const P& o, json& j) { j["stages"] = o.stages; }});
   f.add({"time_range",
          {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2}, {"x-unit", "s"},
@@ -94,7 +107,8 @@ bool PipelineOptions::wants(const std::string& stage) const {
 }
 
 bool PipelineOptions::runs(const Stage& stage, const TrialInputs& in) const {
-  return stage.applies(in) && (!stage.selectable() || wants(stage.name()));
+  const std::string method = stage.activation_method();
+  return stage.applies(in) && (!stage.selectable() || wants(stage.name())) && (method.empty() || method == activation);
 }
 
 void PipelineOptions::set_stage_option(const std::string& stage, const std::string& key, const json& value, const std::string& source) {

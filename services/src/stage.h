@@ -71,6 +71,9 @@ class Stage {
   // when "stages" lists it; one that is not runs whenever it applies.
   virtual bool applies(const TrialInputs&) const { return true; }
   virtual bool selectable() const { return true; }
+  // An activation stage (static optimization, CMC) names its method: the options' "activation" picks
+  // the one that runs, and a stage that needs "activation" builds on it. Other stages: empty.
+  virtual std::string activation_method() const { return ""; }
 
   // The stage's options object, complete (defaults filled in); errors name "<stage>.<field>".
   virtual nlohmann::json normalize_options(const nlohmann::json& given, const std::string& source) const = 0;

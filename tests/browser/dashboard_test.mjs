@@ -138,7 +138,8 @@ try {
     const job = await (await page.request.get(`${base}/api/v1/trials/${trialId}/files/job.json`)).json();
     assert.equal(job.capture.decimate, 2);
     assert.equal(job.so.activation_exponent, 2);
-    assert.deepEqual(job.stages, ['ik', 'id', 'so', 'cpg', 'gait']);
+    assert.deepEqual(job.stages, ['ik', 'id', 'so', 'cmc', 'cpg', 'gait']);
+    assert.equal(job.activation, 'so');
   });
 
   await check('trial list shows the trial with its status and metrics', async () => {
@@ -235,7 +236,7 @@ try {
       await page.setInputFiles('#markers', path.join(pipeline, 'subject01_walk1.trc'));
       await page.setInputFiles('#static', path.join(pipeline, 'subject01_static.trc'));
       await page.setInputFiles('#scale_setup', path.join(pipeline, 'subject01_Setup_Scale.xml'));
-      for (const s of ['id', 'so', 'cpg', 'gait']) await page.uncheck(`input[name=stage][value=${s}]`);
+      for (const s of ['id', 'so', 'cmc', 'cpg', 'gait']) await page.uncheck(`input[name=stage][value=${s}]`);
       await page.click('#upload button[type=submit]');
       await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
       await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 120000 });

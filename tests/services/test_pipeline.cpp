@@ -76,6 +76,7 @@ TEST(PipelineOptions, EveryFieldOfTheSchemaRoundTripsWithANonDefaultValue) {
   const json schema = pipeline_options_schema();
   json doc = {{"model", "m1"},
               {"scale_muscles_from", "g1"},
+              {"activation", "cmc"},
               {"stages", {"ik", "id"}},
               {"time_range", {0.25, 1.5}},
               {"inputs", {{"model", "/x.osim"}}}};
@@ -88,7 +89,7 @@ TEST(PipelineOptions, EveryFieldOfTheSchemaRoundTripsWithANonDefaultValue) {
     }
     ++fields;
   }
-  EXPECT_GE(fields, 21);  // scale 5, capture 5, ik 2, id 1, so 3, cpg 3, gait 2
+  EXPECT_GE(fields, 26);  // scale 5, capture 5, ik 2, id 1, so 3, cmc 5, cpg 3, gait 2
   const PipelineOptions o = PipelineOptions::from_json(doc, "options.json");
   EXPECT_EQ(o.to_json(), doc);
   EXPECT_TRUE(cpgait::testing::schema_violations(schema, doc).empty());
@@ -121,6 +122,15 @@ TEST(PipelineOptions, UnknownOrMistypedFieldsAreRefusedNamingTheirPath) {
   const InputError needs = refusal({{"stages", {"ik", "cpg"}}});
   EXPECT_EQ(needs.field(), "stages");
   EXPECT_NE(needs.message().find("'cpg' needs 'so'"), std::string::npos) << needs.message();
+  // The activation picks which stage the CPG builds on.
+  EXPECT_EQ(refusal({{"activation", "emg"}}).field(), "activation");
+  const InputError cmc_needed = refusal({{"activation", "cmc"}, {"stages", {"ik", "so", "cpg"}}});
+  EXPECT_NE(cmc_needed.message().find("'cpg' needs 'cmc' (the activation)"), std::string::npos) << cmc_needed.message();
+  const PipelineOptions cmc = PipelineOptions::from_json({{"activation", "cmc"}, {"stages", {"ik", "cmc", "cpg"}}}, "options.json");
+  TrialInputs in;
+  EXPECT_TRUE(cmc.runs(*find_stage("cmc"), in));
+  EXPECT_FALSE(PipelineOptions().runs(*find_stage("cmc"), in));  // listed by default, but so is the activation
+  EXPECT_TRUE(PipelineOptions().runs(*find_stage("so"), in));
 }
 
 TEST(PipelineOptions, StagesListTheirNeedsAndFilesInRunOrder) {
@@ -128,15 +138,19 @@ TEST(PipelineOptions, StagesListTheirNeedsAndFilesInRunOrder) {
   std::vector<std::string> names;
   for (const auto& s : stages) {
     names.push_back(s["name"]);
-    for (const auto& need : s["needs"])  // a stage runs after what it needs
-      EXPECT_NE(std::find(names.begin(), names.end() - 1, need.get<std::string>()), names.end() - 1) << s.dump();
+    for (const auto& need : s["needs"]) {  // a stage runs after what it needs ("activation": so or cmc)
+      for (const std::string& n : need == "activation" ? std::vector<std::string>{"so", "cmc"} : std::vector<std::string>{need.get<std::string>()})
+        EXPECT_NE(std::find(names.begin(), names.end() - 1, n), names.end() - 1) << s.dump();
+    }
     for (const auto& t : s["tables"])  // tables served by the results endpoint are files it writes
       EXPECT_NE(std::find(s["writes"].begin(), s["writes"].end(), t), s["writes"].end()) << s.dump();
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"scale", "capture", "ik", "id", "so", "cpg", "gait"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"scale", "capture", "ik", "id", "so", "cmc", "cpg", "gait"}));
   EXPECT_FALSE(stages[0]["selectable"].get<bool>());
   EXPECT_FALSE(stages[1]["selectable"].get<bool>());
-  EXPECT_EQ(pipeline_options_schema()["properties"]["stages"]["items"]["enum"], json({"ik", "id", "so", "cpg", "gait"}));
+  EXPECT_EQ(pipeline_options_schema()["properties"]["stages"]["items"]["enum"], json({"ik", "id", "so", "cmc", "cpg", "gait"}));
+  EXPECT_EQ(pipeline_options_schema()["properties"]["activation"]["enum"], json({"so", "cmc"}));
+  EXPECT_EQ(PipelineOptions().activation, "so");
 }
 
 namespace {
@@ -258,10 +272,13 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
   const CliRun a = cli("run --options " + kept_path + " --model " + in.model_path + " --markers " + dir + "/walk.trc -o " + dir + "/a");
   ASSERT_EQ(a.status, 0) << a.output;
   const std::string written = cpgait::text::read_file(dir + "/a/job.json");
-  // The scale stage came later: its section is its defaults (it does not run without a static trial).
+  // The scale and cmc stages and the activation choice came later: their sections are their defaults
+  // (scale does not run without a static trial, cmc only with "activation": "cmc").
   json written_doc = without_inputs(json::parse(written));
-  EXPECT_EQ(written_doc["scale"], PipelineOptions().to_json()["scale"]);
-  written_doc.erase("scale");
+  for (const char* later : {"scale", "cmc", "activation"}) {
+    EXPECT_EQ(written_doc[later], PipelineOptions().to_json()[later]) << later;
+    written_doc.erase(later);
+  }
   EXPECT_EQ(written_doc.dump(2), without_inputs(json::parse(kept)).dump(2));
   EXPECT_EQ(json::parse(written)["inputs"]["markers"], dir + "/walk.trc");
   const CliRun b = cli("run --options " + dir + "/a/job.json -o " + dir + "/b");

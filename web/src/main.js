@@ -119,6 +119,14 @@ function optionInput(stage, key, field) {
   if (field.type === 'string') return h('input', Object.assign({ type: 'text', placeholder: field.default ?? '' }, common));
   return null;  // objects (IK task weights) come from files, not the form
 }
+// The muscle-activity estimate the CPG is fitted to (the options' "activation"), when the server offers a choice.
+function activationRow(schema, row) {
+  const field = schema && schema.properties && schema.properties.activation;
+  if (!field || !field.enum) return null;
+  return row('Activation', h('select', { id: 'activation', title: field.description, 'data-default': field.default },
+    field.enum.map((v) => h('option', { value: v, selected: v === field.default }, v === 'so' ? 'static optimization (so)' : v === 'cmc' ? 'computed muscle control (cmc)' : v))), 'activation');
+}
+
 function optionsSection(schema, stages, row) {
   if (!schema) return h('p', { class: 'muted' }, 'The options schema could not be loaded: every stage runs with its defaults.');
   // In run order when the stage list is known.
@@ -176,6 +184,7 @@ async function uploadView() {
       models.map((m) => h('option', { value: m.id }, `${m.name} (the generic model it was scaled from)`))), 'scale_muscles_from'),
     row('Time range (s)', h('span', {}, h('input', { type: 'number', step: 'any', id: 't0', placeholder: 'start' }), ' – ', h('input', { type: 'number', step: 'any', id: 't1', placeholder: 'end' })), 'time_range'),
     row('Stages', h('span', {}, stages.filter((s) => s.selectable).map((s) => h('label', { title: s.description }, h('input', { type: 'checkbox', name: 'stage', value: s.name, checked: true }), ` ${s.name.toUpperCase()} `))), 'stages'),
+    activationRow(schema, row),
     optionsSection(schema, stages, row),
     h('div', { class: 'form-error', id: 'form-error' }),
     h('button', { type: 'submit' }, 'Upload and run'));
@@ -205,6 +214,8 @@ async function uploadView() {
     const t0 = form.querySelector('#t0').value, t1 = form.querySelector('#t1').value;
     if (t0 !== '' && t1 !== '') options.time_range = [Number(t0), Number(t1)];
     if (stages.length) options.stages = [...form.querySelectorAll('input[name=stage]:checked')].map((c) => c.value);
+    const activation = form.querySelector('#activation');
+    if (activation && activation.value !== activation.dataset.default) options.activation = activation.value;
     Object.assign(options, changedOptions(form));
     fd.append('options', new Blob([JSON.stringify(options)], { type: 'application/json' }), 'options.json');
     try {

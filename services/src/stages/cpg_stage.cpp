@@ -1,4 +1,6 @@
-// The CPG: a Matsuoka network fitted to the SO activations over the gait cycles of one foot.
+// The CPG: a Matsuoka network fitted to the muscles' activity over the gait cycles of one foot: static
+// optimization's activations, or CMC's excitations when the options' activation is cmc.
+#include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/activation/static_optimization.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "products.h"
@@ -16,7 +18,7 @@ struct CpgStageOptions {
   static const OptionFields<CpgStageOptions>& fields() {
     static const OptionFields<CpgStageOptions> f =
         OptionFields<CpgStageOptions>(
-            "Fitted to the cycle-averaged SO activations over one foot's gait cycles: heel strikes from the GRF's first "
+            "Fitted to the cycle-averaged SO activations (or CMC excitations) over one foot's gait cycles: heel strikes from the GRF's first "
             "vertical force (ground_force_vy), else from kinematics (Zeni 2008).")
             .integer("pairs", &CpgStageOptions::pairs, 1, 6, "rhythm oscillator pairs")
             .integer("pattern_units", &CpgStageOptions::pattern_units, 0, 2, "pattern-layer neurons per rhythm neuron")
@@ -49,21 +51,28 @@ class CpgStage final : public StageWithOptions<CpgStageOptions> {
  public:
   std::string name() const override { return "cpg"; }
   std::string description() const override { return "CPG fit: a Matsuoka network that regenerates the activations"; }
-  std::vector<std::string> needs() const override { return {"so"}; }
+  std::vector<std::string> needs() const override { return {"activation"}; }
   std::vector<std::string> writes() const override { return {"_cpg.json", "_cpg_target.sto", "_cpg_fitted.sto", "_cpg_neurons.sto"}; }
   std::vector<std::string> tables() const override { return {"_cpg_target.sto", "_cpg_fitted.sto", "_cpg_neurons.sto"}; }
 
  protected:
   nlohmann::json execute(StageContext& trial, const CpgStageOptions& o) const override {
     const IkProduct& ik = *trial.products.find<IkProduct>();
-    const StaticOptimizationResult& so = *trial.products.find<StaticOptimizationResult>();
+    // The muscles' activity over time: CMC's excitations (each window's, held over it) or SO's activations.
+    const auto* cmc = trial.products.find<ComputedMuscleControlResult>();
+    const auto* so = trial.products.find<StaticOptimizationResult>();
+    if (!cmc && !so) return {{"not_fitted", "no activation stage ran (so or cmc)"}};
+    const int nm = static_cast<int>(trial.model.muscles.size());
+    const std::vector<double>& activity_time = cmc ? cmc->control_time_s : so->time_s;
+    const Eigen::MatrixXd activity = cmc ? Eigen::MatrixXd(cmc->controls.leftCols(nm)) : Eigen::MatrixXd(so->controls.leftCols(nm));
+    const std::vector<std::string> names = cmc ? cmc->muscle_names : std::vector<std::string>(so->names.begin(), so->names.begin() + nm);
+    const char* activity_name = cmc ? "cycle-averaged CMC excitations" : "cycle-averaged SO activations";
     std::string source;
     const std::vector<double> strikes = heel_strikes(trial, ik, o.foot, source);
-    const int nm = static_cast<int>(trial.model.muscles.size());
-    const std::vector<std::string> names(so.names.begin(), so.names.begin() + nm);
     int cycles = 0;
-    const double cycle_s = mean_cycle_duration(so.time_s, strikes, &cycles);
-    nlohmann::json summary = {{"heel_strikes_s", strikes}, {"heel_strike_source", source}, {"cycles", cycles}};
+    const double cycle_s = mean_cycle_duration(activity_time, strikes, &cycles);
+    nlohmann::json summary = {{"heel_strikes_s", strikes}, {"heel_strike_source", source}, {"cycles", cycles},
+                              {"fitted_to", cmc ? "cmc excitations" : "so activations"}};
     if (cycles == 0 || nm == 0) {
       // Not an error of the trial: IK, ID and SO stand; the stage says why it fitted nothing.
       summary["not_fitted"] = nm == 0 ? "the model has no muscles" : "no full gait cycle (two heel strikes of one foot) inside the trial";
@@ -72,12 +81,12 @@ class CpgStage final : public StageWithOptions<CpgStageOptions> {
     CpgFitOptions fo;
     fo.pairs = o.pairs;
     fo.pattern_units = o.pattern_units;
-    const Eigen::MatrixXd cycle = cycle_average(so.time_s, so.controls.leftCols(nm), strikes, fo.phase_samples);
+    const Eigen::MatrixXd cycle = cycle_average(activity_time, activity, strikes, fo.phase_samples);
     const CpgFitResult fit = fit_cpg(cycle, cycle_s, names, fo);
     trial.write_text(json_text(fit.model.to_json(), 2) + "\n", "_cpg.json");
     std::vector<double> phase_time;
     for (int k = 0; k < cycle.rows(); ++k) phase_time.push_back(cycle_s * k / static_cast<double>(cycle.rows()));
-    trial.write(make_storage("cycle-averaged SO activations", names, phase_time, fit.target, false), "_cpg_target.sto");
+    trial.write(make_storage(activity_name, names, phase_time, fit.target, false), "_cpg_target.sto");
     trial.write(make_storage("CPG excitations, fitted", names, phase_time, fit.fitted, false), "_cpg_fitted.sto");
     const CpgRun run = run_cpg(fit.model, cycle_s, cycle_s / static_cast<double>(cycle.rows()));
     std::vector<std::string> neurons;

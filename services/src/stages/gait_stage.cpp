@@ -1,4 +1,5 @@
 // The reproduced gait: the fitted CPG drives the muscles on contact spheres fitted to the trial's feet.
+#include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "products.h"
@@ -61,11 +62,14 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.start_time_s = start;
     go.duration_s = o.duration_s ? *o.duration_s : std::min(2 * cycle_s, available);
     go.pelvis_residuals = o.residuals;
+    // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
+    go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
     const ReproducedGaitResult g = reproduce_gait(model, cpg->model, reference, feet, go, trial.progress);
     trial.write(reproduced_gait_motion_table(model, g), "_gait.mot");
     trial.write(reproduced_gait_residual_table(g), "_gait_residuals.sto");
     trial.write(reproduced_gait_contact_table(g), "_gait_contact_forces.sto");
     nlohmann::json summary = reproduced_gait_metrics(model, g);
+    summary["compliant_tendons"] = go.compliant_tendons;
     nlohmann::json radius = nlohmann::json::object();
     for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};

@@ -1,6 +1,7 @@
 // Static optimization: muscle activations that produce the joint moments, frame by frame.
 #include "cpgait/activation/static_optimization.h"
 #include "cpgait/muscles/scale_muscle_parameters.h"
+#include "default_actuators.h"
 #include "products.h"
 #include "stage.h"
 
@@ -24,21 +25,6 @@ struct SoStageOptions {
   }
 };
 
-// Residuals on the root joint's coordinates and reserves on the others, all weak (optimal force 1),
-// so static optimization is always feasible and prefers muscles.
-std::vector<ActuatorSpec> default_actuators(const Model& model) {
-  std::vector<ActuatorSpec> out;
-  for (const Joint& j : model.joints)
-    for (int c : j.coordinates) {
-      ActuatorSpec a;
-      a.coordinate = model.coordinates[c].name;
-      a.name = a.coordinate + (j.parent_body == 0 ? "_residual" : "_reserve");
-      a.optimal_force = 1.0;
-      out.push_back(a);
-    }
-  return out;
-}
-
 class SoStage final : public StageWithOptions<SoStageOptions> {
  public:
   std::string name() const override { return "so"; }
@@ -46,6 +32,7 @@ class SoStage final : public StageWithOptions<SoStageOptions> {
   std::vector<std::string> needs() const override { return {"ik"}; }
   std::vector<std::string> writes() const override { return {"_StaticOptimization_activation.sto", "_StaticOptimization_force.sto"}; }
   std::vector<std::string> tables() const override { return writes(); }
+  std::string activation_method() const override { return "so"; }
 
  protected:
   nlohmann::json execute(StageContext& trial, const SoStageOptions& o) const override {
