@@ -87,7 +87,14 @@ void read_setup_xml(std::string_view bytes) {
   each([&] { read_analyze_setup(path); });
   each([&] { read_cmc_setup(path); });
   each([&] { read_cmc_tasks(path); });
-  each([&] { read_control_set(path); });
+  each([&] {
+    // Its bounds are evaluated as CMC evaluates them, at and around the nodes.
+    const ControlSetSpec set = read_control_set(path);
+    for (const ControlBounds& b : set.controls)
+      for (const std::vector<double>* times : {&b.min_node_times_s, &b.max_node_times_s})
+        for (double t : *times)
+          for (double at : {t - 0.5, t, t + 1e-3}) (void)(b.min_at(at) + b.max_at(at));
+  });
   each([&] { read_forward_setup(path); });
   each([&] { read_actuators(path); });
 }
@@ -229,7 +236,11 @@ std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
         "<IKMarkerTask name=\"A\"><weight>2</weight></IKMarkerTask></objects></IKTaskSet></InverseKinematicsTool></OpenSimDocument>",
         "<OpenSimDocument><ForceSet><objects><CoordinateActuator name=\"r\"><coordinate>hip</coordinate>"
         "<optimal_force>100</optimal_force></CoordinateActuator></objects></ForceSet></OpenSimDocument>",
-        "<CMCTool><desired_kinematics_file>q.mot</desired_kinematics_file><task_set_file>t.xml</task_set_file></CMCTool>"}},
+        "<CMCTool><desired_kinematics_file>q.mot</desired_kinematics_file><task_set_file>t.xml</task_set_file></CMCTool>",
+        "<OpenSimDocument Version=\"30000\"><ControlSet><objects><ControlLinear name=\"a.excitation\"><use_steps>false</use_steps>"
+        "<min_nodes><ControlLinearNode><t>0.5</t><value>0</value></ControlLinearNode><ControlLinearNode><t>0.6</t><value>2</value>"
+        "</ControlLinearNode></min_nodes><max_nodes><ControlLinearNode><t>0.5</t><value>1</value></ControlLinearNode></max_nodes>"
+        "</ControlLinear></objects></ControlSet></OpenSimDocument>"}},
       {"video_json",
        {video::format_calibration_json(fixtures::lab_rig()), video::format_tag_set_json(fixtures::tagged_walker().tags),
         video::format_aprilgrid_spec(video::AprilGridSpec{})}},
