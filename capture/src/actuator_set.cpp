@@ -5,8 +5,10 @@
 
 namespace cpgait {
 
-std::vector<ActuatorSpec> read_actuators(const std::string& path, std::vector<std::string>* skipped) {
-  const auto d = xml::Document::load_file(path);
+namespace {
+
+std::vector<ActuatorSpec> actuators_of(const xml::Document& d, std::vector<std::string>* skipped) {
+  const std::string& path = d.name();
   pugi::xml_node set = d.doc().document_element();
   if (std::string(set.name()) == "OpenSimDocument") set = set.first_child();
   if (std::string(set.name()) == "Model") set = set.child("ForceSet");
@@ -57,6 +59,16 @@ std::vector<ActuatorSpec> read_actuators(const std::string& path, std::vector<st
     out.push_back(a);
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<ActuatorSpec> read_actuators(const std::string& path, std::vector<std::string>* skipped) {
+  return actuators_of(xml::Document::load_file(path), skipped);
+}
+
+std::vector<ActuatorSpec> parse_actuators(const std::string& text, const std::string& name, std::vector<std::string>* skipped) {
+  return actuators_of(xml::Document::load_string(text, name), skipped);
 }
 
 }  // namespace cpgait

@@ -37,8 +37,9 @@ void read_tool_common(const xml::Document& d, const pugi::xml_node& tool, std::s
 
 }  // namespace
 
-std::vector<CmcJointTask> read_cmc_tasks(const std::string& path) {
-  const auto d = xml::Document::load_file(path);
+namespace {
+
+std::vector<CmcJointTask> cmc_tasks_of(const xml::Document& d) {
   pugi::xml_node root = d.doc().document_element();
   if (std::string(root.name()) == "OpenSimDocument") root = root.first_child();
   const pugi::xml_node set = first_element_named(root, {"CMC_TaskSet", "rdCMC_TaskSet"});
@@ -68,12 +69,19 @@ std::vector<CmcJointTask> read_cmc_tasks(const std::string& path) {
       const auto words = text::split_ws(active);
       if (!words.empty() && words[0] == "false") task.on = false;
     }
-    task.file = path;
+    task.file = d.name();
     task.line = d.line_of(t);
     tasks.push_back(task);
   }
   if (tasks.empty()) d.fail(set, "the task set holds no tasks");
   return tasks;
+}
+
+}  // namespace
+
+std::vector<CmcJointTask> read_cmc_tasks(const std::string& path) { return cmc_tasks_of(xml::Document::load_file(path)); }
+std::vector<CmcJointTask> parse_cmc_tasks(const std::string& text, const std::string& name) {
+  return cmc_tasks_of(xml::Document::load_string(text, name));
 }
 
 const ControlBounds* ControlSetSpec::find(const std::string& actuator) const {
@@ -108,8 +116,9 @@ double ControlBounds::max_at(double t_s) const {
   return min_node_times_s.empty() || max_node_times_s.empty() ? max : node_value(max_node_times_s, max_node_values, t_s, use_steps, extrapolate);
 }
 
-ControlSetSpec read_control_set(const std::string& path) {
-  const auto d = xml::Document::load_file(path);
+namespace {
+
+ControlSetSpec control_set_of(const xml::Document& d) {
   pugi::xml_node root = d.doc().document_element();
   if (std::string(root.name()) == "OpenSimDocument") root = root.first_child();
   if (std::string(root.name()) != "ControlSet") d.fail(root, "expected a <ControlSet>");
@@ -138,6 +147,13 @@ ControlSetSpec read_control_set(const std::string& path) {
   if (auto def = root.child("defaults").child("ControlLinear")) spec.defaults = read(def);
   for (const auto& c : root.child("objects").children("ControlLinear")) spec.controls.push_back(read(c));
   return spec;
+}
+
+}  // namespace
+
+ControlSetSpec read_control_set(const std::string& path) { return control_set_of(xml::Document::load_file(path)); }
+ControlSetSpec parse_control_set(const std::string& text, const std::string& name) {
+  return control_set_of(xml::Document::load_string(text, name));
 }
 
 CmcSetup read_cmc_setup(const std::string& path) {

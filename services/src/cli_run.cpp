@@ -1,6 +1,7 @@
 // run: every available stage on one trial, as the server runs it; job.json reproduces the run.
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
 
 #include "commands.h"
 #include "cpgait/capture/input_error.h"
@@ -25,6 +26,7 @@ class PrintingObserver : public PipelineObserver {
 struct RunArgs {
   std::string model, generic_model, ik_tasks, markers, grf, loads, options, name, out, calibration, tags;
   std::string scale_from, static_trial, scale_setup, marker_set;
+  std::string cmc_tasks, cmc_actuators, cmc_constraints;
   std::vector<std::string> videos;
   bool print_schema = false;
 };
@@ -76,6 +78,11 @@ TrialInputs resolve_inputs(const RunArgs& a, PipelineOptions& options) {
   }
   if (!grf.empty()) in.grf = text::read_file(grf), in.grf_name = grf;
   if (!loads.empty()) in.loads = text::read_file(loads), in.loads_name = loads;
+  // The cmc stage's OpenSim files, read now and recorded below like the other inputs.
+  const std::string* cmc_given[] = {&a.cmc_tasks, &a.cmc_actuators, &a.cmc_constraints};
+  for (std::size_t k = 0; k < std::size(kCmcFileParts); ++k)
+    if (const std::string path = input(*cmc_given[k], kCmcFileParts[k].part); !path.empty())
+      in.*kCmcFileParts[k].content = text::read_file(path), in.*kCmcFileParts[k].name = path;
   in.name = !a.name.empty() ? a.name
             : options.inputs.contains("name") ? options.inputs["name"].get<std::string>()
                                               : in.has_footage() ? std::string("capture") : fs::path(markers).stem().string();
@@ -94,6 +101,8 @@ TrialInputs resolve_inputs(const RunArgs& a, PipelineOptions& options) {
   }
   if (!grf.empty()) options.inputs["grf"] = grf;
   if (!loads.empty()) options.inputs["loads"] = loads;
+  for (const CmcFilePart& f : kCmcFileParts)
+    if (!(in.*f.name).empty()) options.inputs[f.part] = in.*f.name;
   return in;
 }
 
@@ -128,6 +137,13 @@ void add_run_command(CLI::App& app) {
   run->add_option("--tags", a->tags, "tag set for --videos (.json)")->check(CLI::ExistingFile);
   run->add_option("--grf", a->grf, "ground reaction forces (.mot)")->check(CLI::ExistingFile);
   run->add_option("--loads", a->loads, "ExternalLoads .xml for the GRF")->check(CLI::ExistingFile);
+  run->add_option("--cmc-tasks", a->cmc_tasks, "an OpenSim CMC task set .xml for the cmc stage (absent: every unlocked coordinate)")
+      ->check(CLI::ExistingFile);
+  run->add_option("--cmc-actuators", a->cmc_actuators,
+                  "an OpenSim actuator ForceSet .xml for the cmc stage, added to the model's (absent: weak residuals and reserves)")
+      ->check(CLI::ExistingFile);
+  run->add_option("--cmc-constraints", a->cmc_constraints, "an OpenSim control-constraints ControlSet .xml for the cmc stage")
+      ->check(CLI::ExistingFile);
   run->add_option("--ik-tasks", a->ik_tasks,
                   "IK task weights for the ik stage: an IKTaskSet .xml (or an IK setup's), or the .json equivalent; kept in "
                   "job.json as ik.tasks")

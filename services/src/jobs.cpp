@@ -203,6 +203,11 @@ void JobRunner::run_trial(const TrialRecord& t) {
       in.scale_setup = text::read_file((dir / "inputs" / "scale_setup.xml").string());
       in.scale_setup_name = "scale_setup.xml";
     }
+    for (const CmcFilePart& f : kCmcFileParts)
+      if (const fs::path p = dir / "inputs" / (std::string(f.part) + ".xml"); fs::exists(p)) {
+        in.*f.content = text::read_file(p.string());
+        in.*f.name = p.filename().string();
+      }
     StoreObserver observer(store_, events_, metrics_, t, [this, &t] { return cancel_requested(t.id); });
     run_pipeline(in, options, work.string(), &observer);
     fs::remove_all(results, ec);

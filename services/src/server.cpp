@@ -253,7 +253,8 @@ class Api {
       send_error(res, 400, "missing_part", "a 'scale_setup' needs the subject's 'static' trial", "static");
       return false;
     }
-    for (const char* p : {"markers", "grf", "loads", "options", "calibration", "tags", "static", "scale_setup"})
+    for (const char* p : {"markers", "grf", "loads", "options", "calibration", "tags", "static", "scale_setup", "cmc_tasks", "cmc_actuators",
+                          "cmc_constraints"})
       if (req.has_file(p) && !req.get_file_value(p).filename.empty() && !is_safe_file_name(req.get_file_value(p).filename)) {
         send_error(res, 400, "bad_file_name", "unsafe file name '" + req.get_file_value(p).filename + "'", p);
         return false;
@@ -323,6 +324,12 @@ class Api {
       in.scale_setup = su.content;
       in.scale_setup_name = su.filename.empty() ? "scale_setup" : su.filename;
     }
+    for (const CmcFilePart& f : kCmcFileParts)
+      if (req.has_file(f.part)) {
+        const auto up = req.get_file_value(f.part);
+        in.*f.content = up.content;
+        in.*f.name = up.filename.empty() ? f.part : up.filename;
+      }
     return in;
   }
 
@@ -349,6 +356,8 @@ class Api {
     }
     if (!in.static_markers.empty()) write_text_atomic((inputs / "static.trc").string(), in.static_markers);
     if (!in.scale_setup.empty()) write_text_atomic((inputs / "scale_setup.xml").string(), in.scale_setup);
+    for (const CmcFilePart& f : kCmcFileParts)
+      if (!(in.*f.content).empty()) write_text_atomic((inputs / (std::string(f.part) + ".xml")).string(), in.*f.content);
   }
 
   // Which upload part a validation error is about.
@@ -357,6 +366,8 @@ class Api {
     if (file == in.loads_name) return "loads";
     if (!in.static_name.empty() && file == in.static_name) return "static";
     if (!in.scale_setup_name.empty() && file == in.scale_setup_name) return "scale_setup";
+    for (const CmcFilePart& f : kCmcFileParts)
+      if (!(in.*f.name).empty() && file == in.*f.name) return f.part;
     if (footage && file == in.calibration_path) return "calibration";
     if (footage && file == in.tags_path) return "tags";
     return footage ? "videos" : "markers";

@@ -401,6 +401,19 @@ TEST(Api, BadInputMatrix) {
          return f;
        }(), 422, "invalid_input", "", 4},
   };
+  // The cmc stage's OpenSim files: checked at upload when CMC is the activation.
+  const json walker_cmc = {{"model", "walker"}, {"activation", "cmc"}};
+  auto with_part = [&](const char* part, const std::string& content) {
+    auto f = trial_form(trc, "a.trc", walker_cmc);
+    f.push_back({part, content, std::string(part) + ".xml", ""});
+    return f;
+  };
+  cases.push_back({"CMC task on an unknown coordinate",
+                   with_part("cmc_tasks", "<OpenSimDocument Version=\"30000\">\n<CMC_TaskSet>\n<objects>\n"
+                                          "<CMC_Joint name=\"knee\"><coordinate>knee_flexion_x</coordinate></CMC_Joint>\n"
+                                          "</objects>\n</CMC_TaskSet>\n</OpenSimDocument>"),
+                   422, "invalid_input", "coordinate", 4});
+  cases.push_back({"malformed CMC actuators XML", with_part("cmc_actuators", "<ForceSet>\n<objects>\n</ForceSet>"), 422, "invalid_input", "", 3});
   cases[4].form[1].content = "{\"model\": ";
   for (const auto& k : cases) {
     auto r = c.Post("/api/v1/trials", k.form);
@@ -415,6 +428,9 @@ TEST(Api, BadInputMatrix) {
     }
     if (k.line > 0) {
       EXPECT_EQ(e["error"].value("line", 0), k.line) << k.what << ": " << r->body;
+    }
+    if (k.what.rfind("CMC", 0) == 0 || k.what.find("CMC") != std::string::npos) {
+      EXPECT_EQ(e["error"].value("part", ""), k.what.find("actuators") != std::string::npos ? "cmc_actuators" : "cmc_tasks") << r->body;
     }
   }
   // Too large: 413 with a JSON body.
@@ -449,6 +465,43 @@ TEST(Api, BadInputMatrix) {
 }
 
 // A lab's C3D as the markers part: read by content, turned Y-up, IK as from the TRC.
+// OpenSim CMC files uploaded with a trial: the cmc stage tracks the task set's coordinates, with the
+// uploaded actuators added to the model's, and says so; the files are kept with the trial's inputs.
+TEST(Api, CmcFilesUploadedWithATrialAreUsed) {
+  const std::string dir = cpgait::refdata::temp_dir("api_cmc_files");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto form = trial_form(synthetic_trc(0.4), "walk.trc", {{"model", "walker"}, {"activation", "cmc"}, {"stages", {"ik", "cmc"}}});
+  form.push_back({"cmc_tasks",
+                  "<OpenSimDocument Version=\"30000\"><CMC_TaskSet><objects>"
+                  "<CMC_Joint name=\"hip\"><coordinate>hip_flexion_r</coordinate><kp>100</kp><kv>20</kv></CMC_Joint>"
+                  "<CMC_Joint name=\"knee\"><coordinate>knee_angle_r</coordinate><kp>100</kp><kv>20</kv></CMC_Joint>"
+                  "</objects></CMC_TaskSet></OpenSimDocument>",
+                  "tasks.xml", ""});
+  form.push_back({"cmc_actuators",
+                  "<OpenSimDocument Version=\"30000\"><ForceSet><objects>"
+                  "<CoordinateActuator name=\"hip_reserve\"><coordinate>hip_flexion_r</coordinate><optimal_force>5</optimal_force></CoordinateActuator>"
+                  "</objects></ForceSet></OpenSimDocument>",
+                  "reserves.xml", ""});
+  auto r = c.Post("/api/v1/trials", form);
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = body(r)["id"];
+  ASSERT_EQ(wait_finished(c, id, 120), "done") << server.log();
+  const json trial = body(c.Get(("/api/v1/trials/" + id).c_str()));
+  json cmc;
+  for (const auto& s : trial["stages"])
+    if (s["name"] == "cmc") cmc = s;
+  ASSERT_EQ(cmc["state"], "done") << trial.dump();
+  EXPECT_EQ(cmc["summary"]["tasks"], "cmc_tasks.xml");  // as the worker reads it back from the trial's inputs
+  EXPECT_EQ(cmc["summary"]["actuators"], "the model's and cmc_actuators.xml");
+  auto forces = c.Get(("/api/v1/trials/" + id + "/files/walk_cmc_Actuation_force.sto").c_str());
+  ASSERT_EQ(forces->status, 200);
+  EXPECT_NE(forces->body.find("hip_reserve"), std::string::npos);
+  EXPECT_EQ(forces->body.find("_residual"), std::string::npos);  // not the derived actuators
+  fs::remove_all(dir);
+}
+
 TEST(Api, C3dMarkersUploadRunsLikeItsTrc) {
   const std::string dir = cpgait::refdata::temp_dir("api_c3d");
   ServerProcess server(dir + "/data");

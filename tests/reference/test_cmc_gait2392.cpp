@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "cpgait/activation/computed_muscle_control.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/muscles/scale_muscle_parameters.h"
@@ -259,4 +261,40 @@ TEST(CmcGait2392, WithoutGrfOnContactSpheres) {
   for (const char* mtp : {"mtp_angle_r", "mtp_angle_l"}) EXPECT_LT(rms[m.coordinate_index(mtp)] * 180 / M_PI, 20.0) << mtp << ": regression bound";
   std::printf("[ info ] no GRF: windows with residuals beyond their constraints %d of %d (not asserted: the known gap above)\n",
               r.summary.windows_residuals_unbounded, r.summary.windows);
+}
+
+// The pipeline's cmc stage on OpenSim's own CMC files for subject01 (`cpgait run --cmc-tasks
+// --cmc-actuators --cmc-constraints` with "activation": "cmc"): the stage says it used them, job.json
+// records them, and a task set naming a coordinate the model lacks is refused before any stage runs,
+// naming the file and line.
+TEST(CmcGait2392, PipelineTakesOpenSimsCmcFiles) {
+  const std::string pl = refdata::gait2392("pipeline/");
+  for (const char* f : {"gait2392_CMC_Tasks.xml", "gait2392_CMC_Actuators.xml", "gait2392_CMC_ControlConstraints.xml", "subject01_walk1.trc"})
+    REQUIRE_REFERENCE(pl + f);
+  const std::string dir = refdata::temp_dir("cmc_pipeline_files");
+  std::ofstream(dir + "/options.json") << R"({"activation": "cmc", "stages": ["ik", "cmc"], "time_range": [0.6, 1.0]})";
+  const std::string inputs = "--model " + pl + "OutputReference/subject01_simbody.osim --markers " + pl + "subject01_walk1.trc --grf " + pl +
+                             "subject01_walk1_grf.mot --loads " + pl + "subject01_walk1_grf.xml --options " + dir + "/options.json";
+  const refdata::CliRun r = refdata::run_cpgait("run " + inputs + " --cmc-tasks " + pl + "gait2392_CMC_Tasks.xml --cmc-actuators " + pl +
+                                                "gait2392_CMC_Actuators.xml --cmc-constraints " + pl + "gait2392_CMC_ControlConstraints.xml -o " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"tasks\":\"" + pl + "gait2392_CMC_Tasks.xml\""), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"actuators\":\"the model's and " + pl + "gait2392_CMC_Actuators.xml\""), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"constraints\":"), std::string::npos) << r.output;
+  const Storage forces = read_storage(dir + "/out/subject01_walk1_cmc_Actuation_force.sto");
+  EXPECT_GE(forces.column("FX"), 0);  // the file's residual actuators, not the derived ones
+  EXPECT_LT(forces.column("pelvis_tx_residual"), 0);
+  const std::string job = text::read_file(dir + "/out/job.json");
+  for (const char* key : {"cmc_tasks", "cmc_actuators", "cmc_constraints"}) EXPECT_NE(job.find(std::string("\"") + key + "\""), std::string::npos) << key;
+
+  std::string tasks = text::read_file(pl + "gait2392_CMC_Tasks.xml");
+  const std::size_t at = tasks.find("knee_angle_r </coordinate>");
+  ASSERT_NE(at, std::string::npos);
+  tasks.replace(at, 12, "knee_angle_x");
+  std::ofstream(dir + "/bad_tasks.xml") << tasks;
+  const refdata::CliRun bad = refdata::run_cpgait("run " + inputs + " --cmc-tasks " + dir + "/bad_tasks.xml -o " + dir + "/bad");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.output.find("bad_tasks.xml:"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("knee_angle_x"), std::string::npos) << bad.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad/subject01_walk1_ik.mot"));  // refused before IK ran
 }

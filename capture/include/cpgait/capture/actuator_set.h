@@ -32,5 +32,7 @@ struct ActuatorSpec {
 // Reads the actuators of a <ForceSet> (root, inside <OpenSimDocument>, or a model's). Other force
 // types are listed in `skipped`.
 std::vector<ActuatorSpec> read_actuators(const std::string& path, std::vector<std::string>* skipped = nullptr);
+// The same from a document's text (an upload), errors naming `name`.
+std::vector<ActuatorSpec> parse_actuators(const std::string& text, const std::string& name, std::vector<std::string>* skipped = nullptr);
 
 }  // namespace cpgait

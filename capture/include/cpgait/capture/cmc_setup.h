@@ -18,6 +18,7 @@ struct CmcJointTask {
 // Reads <CMC_TaskSet> / <rdCMC_TaskSet>; CMC_Point or CMC_Orientation tasks throw InputError
 // (cpgait tracks coordinates only).
 std::vector<CmcJointTask> read_cmc_tasks(const std::string& path);
+std::vector<CmcJointTask> parse_cmc_tasks(const std::string& text, const std::string& name);  // an upload's
 
 struct ControlBounds {
   std::string name;  // actuator name: the ControlLinear's name without ".excitation"
@@ -36,6 +37,7 @@ struct ControlSetSpec {
   const ControlBounds* find(const std::string& actuator) const;  // the control or the defaults
 };
 ControlSetSpec read_control_set(const std::string& path);
+ControlSetSpec parse_control_set(const std::string& text, const std::string& name);  // an upload's
 
 struct CmcSetup {
   std::string name, setup_dir, model_file, results_directory = ".";
