@@ -24,12 +24,12 @@ struct CmcStageOptions {
   static const OptionFields<CmcStageOptions>& fields() {
     static const OptionFields<CmcStageOptions> f =
         OptionFields<CmcStageOptions>(
-            "OpenSim's CMC with its fast target, tracking every unlocked coordinate of the IK (a CMC_Joint task each, "
-            "weight 1), with the measured GRF when given; residual actuators on the root joint's coordinates and reserves on "
-            "the others, all of optimal force 1 (as static optimization's).")
+            "OpenSim's CMC with its fast target, with the measured GRF when given. Without the trial's CMC files it tracks "
+            "every unlocked coordinate of the IK (a CMC_Joint task each, weight 1) with residual actuators on the root joint's "
+            "coordinates and reserves on the others, all of optimal force 1 (as static optimization's).")
             .number("window_s", &CmcStageOptions::window_s, "s", "CMC time window (OpenSim's cmc_time_window)", NumberRange{0.001, 0.1})
-            .number("kp", &CmcStageOptions::kp, "1/s^2", "position gain of every task", NumberRange{0.0, 10000.0})
-            .number("kv", &CmcStageOptions::kv, "1/s", "velocity gain of every task", NumberRange{0.0, 1000.0})
+            .number("kp", &CmcStageOptions::kp, "1/s^2", "position gain of every derived task (a task file's own gains win)", NumberRange{0.0, 10000.0})
+            .number("kv", &CmcStageOptions::kv, "1/s", "velocity gain of every derived task", NumberRange{0.0, 1000.0})
             .boolean("compliant_tendons", &CmcStageOptions::compliant_tendons,
                      "compliant tendons with fibre-length states (OpenSim's muscles); false: rigid tendons")
             .number("lowpass_cutoff_hz", &CmcStageOptions::lowpass_cutoff_hz, "Hz",

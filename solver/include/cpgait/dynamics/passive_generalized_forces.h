@@ -1,7 +1,7 @@
 #pragma once
 // The model's passive forces as generalized forces: those acting on coordinates directly (OpenSim's
-// CoordinateLimitForce, SpringGeneralizedForce and ExpressionBasedCoordinateForce) and path springs (OpenSim's PathSpring), as functions of the coordinates and
-// their speeds.
+// CoordinateLimitForce, SpringGeneralizedForce and ExpressionBasedCoordinateForce) and path springs
+// (OpenSim's PathSpring), as functions of the coordinates and their speeds.
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/model/model.h"
