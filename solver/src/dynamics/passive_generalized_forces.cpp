@@ -46,8 +46,9 @@ void add_coordinate_forces(const Model& model, const double* q, const double* qd
 void add_passive_generalized_forces(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                                     const MotionSubspace& S, double* tau) {
   add_coordinate_forces(model, q, qd, tau);
+  if (model.path_springs.empty()) return;  // no allocation on forward dynamics' every evaluation
   // A tension T shortening the path: tau = -T dL/dq (its power is -T dL/dt).
-  Eigen::RowVectorXd dL_dq(model.num_coordinates());
+  Eigen::RowVectorXd dL_dq;
   for (const PathSpring& s : model.path_springs) {
     double length = 0, speed = 0;
     path_geometry(model, s, q, qd, ws, S, length, speed, dL_dq);

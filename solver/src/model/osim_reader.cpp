@@ -541,7 +541,7 @@ class Reader {
     }
   }
 
-  // A muscle's or a path spring's GeometryPath: its points and wraps.
+  // A muscle's, path spring's or path actuator's GeometryPath: its points and wraps.
   template <typename PathOwner>
   void read_path(const xml_node& muscle, PathOwner& mu) {
     // Documents before 20000 keep the points in the muscle itself: MusclePointSet, MuscleWrapSet.
@@ -738,7 +738,6 @@ class Reader {
     mu.degroote = std::make_shared<const degroote_fregly2016::Parameters>(p);
   }
 
-  // Stiffness per degree and limits in degrees for rotational coordinates, converted to SI here.
   void read_path_spring(const xml_node& n) {
     PathSpring ps;
     ps.name = n.attribute("name").value();
@@ -787,6 +786,7 @@ class Reader {
   // A force's isDisabled (3.x) or appliesForce (4.x) switch.
   bool applies_force(const xml_node& n) const { return !d_.boolean(n, "isDisabled", false) && d_.boolean(n, "appliesForce", true); }
 
+  // Stiffness per degree and limits in degrees for rotational coordinates, converted to SI here.
   void read_coordinate_limit_force(const xml_node& n) {
     CoordinateLimitForce f;
     f.name = n.attribute("name").value();
