@@ -6,8 +6,9 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config
   libeigen3-dev libceres-dev libopencv-dev libapriltag-dev
-  libcpp-httplib-dev nlohmann-json3-dev libpugixml-dev libsqlite3-dev
+  libcpp-httplib-dev nlohmann-json3-dev libpugixml-dev libsqlite3-dev libpq-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  postgresql  # the scale-out tests start their own server (initdb into a temporary folder)
   chromium  # the dashboard's browser tests (driven by playwright-core from npm)
 )
 # Node.js and npm for the dashboard, from Debian unless a newer one is already on the machine.

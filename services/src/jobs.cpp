@@ -3,11 +3,13 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <unistd.h>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
-#include "pipeline.h"
 #include "output_files.h"
+#include "pipeline.h"
+#include "sha256.h"
 
 namespace cpgait::services {
 namespace fs = std::filesystem;
@@ -22,34 +24,39 @@ void log_line(const json& fields) {
   std::fflush(stdout);
 }
 
-void EventHub::publish(const std::string& trial, json event) {
+void ChangeSignal::notify() {
   {
     std::lock_guard lock(mutex_);
-    Stream& s = streams_[trial];
-    s.events.emplace_back(s.next++, std::move(event));
-    while (s.events.size() > 500) s.events.pop_front();
+    ++version_;
   }
   changed_.notify_all();
 }
 
-std::vector<std::pair<long, json>> EventHub::wait(const std::string& trial, long after, int timeout_ms) {
+std::uint64_t ChangeSignal::wait(std::uint64_t seen, int timeout_ms) {
   std::unique_lock lock(mutex_);
-  auto ready = [&] { return streams_.count(trial) && streams_[trial].next - 1 > after; };
-  changed_.wait_for(lock, std::chrono::milliseconds(timeout_ms), ready);
-  std::vector<std::pair<long, json>> out;
-  if (!streams_.count(trial)) return out;
-  for (const auto& e : streams_[trial].events)
-    if (e.first > after) out.push_back(e);
-  return out;
+  changed_.wait_for(lock, std::chrono::milliseconds(timeout_ms), [&] { return version_ > seen; });
+  return version_;
 }
 
-void EventHub::forget(const std::string& trial) {
+std::uint64_t ChangeSignal::version() {
   std::lock_guard lock(mutex_);
-  streams_.erase(trial);
+  return version_;
 }
 
-JobRunner::JobRunner(Store& store, EventHub& events, Metrics& metrics, std::string data_dir, int workers)
-    : store_(store), events_(events), metrics_(metrics), data_dir_(std::move(data_dir)), workers_(std::max(1, workers)) {}
+namespace {
+
+std::string default_worker_name() {
+  char host[256] = "host";
+  gethostname(host, sizeof host - 1);
+  return std::string(host) + ":" + std::to_string(getpid()) + ":" + new_id().substr(0, 6);
+}
+
+}  // namespace
+
+JobRunner::JobRunner(Store& store, ChangeSignal& changes, std::string data_dir, RunnerOptions options)
+    : store_(store), changes_(changes), data_dir_(std::move(data_dir)), options_(std::move(options)) {
+  if (options_.name.empty()) options_.name = default_worker_name();
+}
 
 JobRunner::~JobRunner() { stop(); }
 
@@ -64,65 +71,97 @@ std::string JobRunner::marker_set_path(const std::string& model_id) const {
 }
 
 void JobRunner::start() {
-  for (const auto& id : store_.requeue_interrupted()) {
-    std::error_code ec;
-    fs::remove_all(fs::path(trial_dir(id)) / "work", ec);
-    log_line({{"event", "requeued"}, {"trial", id}, {"why", "interrupted by a restart"}});
-  }
-  for (int i = 0; i < workers_; ++i) threads_.emplace_back([this] { worker(); });
+  if (options_.requeue_running_on_start)
+    for (const auto& id : store_.requeue_running())
+      log_line({{"event", "requeued"}, {"trial", id}, {"why", "interrupted by a restart"}});
+  for (int i = 0; i < options_.threads; ++i) threads_.emplace_back([this] { worker(); });
+  heartbeat_ = std::thread([this] { heartbeat(); });
 }
 
 void JobRunner::stop() {
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
+    for (auto& [id, h] : held_) h.stop = true;  // running trials stop at their next check and go back to the queue
   }
   work_.notify_all();
   for (auto& t : threads_)
     if (t.joinable()) t.join();
   threads_.clear();
+  if (heartbeat_.joinable()) heartbeat_.join();
 }
 
 void JobRunner::wake() { work_.notify_one(); }
 
 bool JobRunner::cancel(const std::string& id) {
-  const auto t = store_.trial(id);
-  if (!t || (t->status != "queued" && t->status != "running")) return false;
+  const Store::Cancel c = store_.request_cancel(id);
+  if (c == Store::Cancel::kFinished) return false;
   {
     std::lock_guard lock(mutex_);
-    cancel_requests_.insert(id);
+    if (auto it = held_.find(id); it != held_.end()) it->second.stop = true;  // ours: no need to wait for the heartbeat
   }
-  if (t->status == "queued") {
-    store_.set_status(id, "cancelled");
-    events_.publish(id, {{"status", "cancelled"}});
-  }
+  changes_.notify();
   return true;
 }
 
-bool JobRunner::cancel_requested(const std::string& id) {
+bool JobRunner::stop_requested(const std::string& id) {
   std::lock_guard lock(mutex_);
-  return cancel_requests_.count(id) > 0;
+  const auto it = held_.find(id);
+  return it == held_.end() || it->second.stop;
+}
+
+void JobRunner::heartbeat() {
+  bool store_down = false;
+  while (true) {
+    {
+      std::unique_lock lock(mutex_);
+      work_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [&] { return stopping_; });
+      if (stopping_) return;
+    }
+    try {
+      std::map<std::string, Held> held;
+      {
+        std::lock_guard lock(mutex_);
+        held = held_;
+      }
+      for (const auto& [id, h] : held) {
+        const Store::Lease lease = store_.renew_lease(id, options_.name, h.attempt, options_.lease_s);
+        if (lease == Store::Lease::kHeld) continue;
+        std::lock_guard lock(mutex_);
+        if (auto it = held_.find(id); it != held_.end()) it->second.stop = true;
+        if (lease == Store::Lease::kLost) log_line({{"event", "lease_lost"}, {"trial", id}, {"worker", options_.name}});
+      }
+      // Trials whose worker died: back to the queue for whoever is free.
+      const auto requeued = store_.requeue_expired();
+      for (const auto& id : requeued) log_line({{"event", "requeued"}, {"trial", id}, {"why", "its lease expired"}});
+      if (!requeued.empty()) work_.notify_all(), changes_.notify();
+      if (store_down) log_line({{"event", "store_reconnected"}, {"worker", options_.name}});
+      store_down = false;
+    } catch (const std::exception& e) {
+      if (!store_down) log_line({{"event", "store_unavailable"}, {"worker", options_.name}, {"error", e.what()}});
+      store_down = true;
+    }
+  }
 }
 
 void JobRunner::worker() {
   while (true) {
-    std::optional<TrialRecord> t;
     {
       std::unique_lock lock(mutex_);
       work_.wait_for(lock, std::chrono::milliseconds(500), [&] { return stopping_; });
       if (stopping_) return;
     }
     // Drain the queue before sleeping again.
-    while ((t = store_.claim_next())) {
-      if (cancel_requested(t->id)) {
-        store_.set_status(t->id, "cancelled");
-        continue;
+    try {
+      while (std::optional<TrialRecord> t = store_.claim_next(options_.name, options_.lease_s)) {
+        running_++;
+        run_trial(*t);
+        running_--;
+        std::lock_guard lock(mutex_);
+        if (stopping_) return;
       }
-      running_++;
-      run_trial(*t);
-      running_--;
-      std::lock_guard lock(mutex_);
-      if (stopping_) return;
+    } catch (const std::exception& e) {  // the store is unreachable: try again after the wait
+      log_line({{"event", "store_unavailable"}, {"worker", options_.name}, {"error", e.what()}});
     }
   }
 }
@@ -131,33 +170,41 @@ namespace {
 
 class StoreObserver : public PipelineObserver {
  public:
-  StoreObserver(Store& store, EventHub& events, Metrics& metrics, const TrialRecord& t, std::function<bool()> cancelled)
-      : store_(store), events_(events), metrics_(metrics), trial_(t), cancelled_(std::move(cancelled)) {}
+  StoreObserver(Store& store, ChangeSignal& changes, const TrialRecord& t, std::function<bool()> cancelled)
+      : store_(store), changes_(changes), trial_(t), cancelled_(std::move(cancelled)) {}
   void stage_started(const std::string& stage) override { update(stage, "running", 0, 0, json::object()); }
-  void stage_progress(const std::string& stage, double fraction) override { update(stage, "running", fraction, 0, json::object()); }
+  void stage_progress(const std::string& stage, double fraction) override {
+    // Progress reaches the store ten times a second at most: other processes poll it.
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_progress_ < std::chrono::milliseconds(100)) return;
+    last_progress_ = now;
+    update(stage, "running", fraction, 0, json::object());
+  }
   void stage_finished(const std::string& stage, double seconds, const json& summary) override {
     update(stage, "done", 1, seconds, summary);
-    {
-      std::lock_guard lock(metrics_.mutex);
-      auto& m = metrics_.stage_seconds[stage];
-      m.first += seconds;
-      m.second += 1;
-    }
     log_line({{"event", "stage"}, {"trial", trial_.id}, {"stage", stage}, {"state", "done"}, {"seconds", seconds}});
   }
   bool cancelled() const override { return cancelled_(); }
 
  private:
   Store& store_;
-  EventHub& events_;
-  Metrics& metrics_;
+  ChangeSignal& changes_;
   const TrialRecord& trial_;
   std::function<bool()> cancelled_;
+  std::chrono::steady_clock::time_point last_progress_{};
   void update(const std::string& stage, const std::string& state, double progress, double seconds, const json& summary) {
-    store_.set_stage(trial_.id, {stage, state, progress, seconds, summary});
-    events_.publish(trial_.id, {{"status", "running"}, {"stage", stage}, {"state", state}, {"progress", progress}});
+    store_.set_stage(trial_.id, trial_.attempt, {stage, state, progress, seconds, summary});
+    changes_.notify();
   }
 };
+
+// Every result file's SHA-256, by name.
+json result_checksums(const fs::path& dir) {
+  json sums = json::object();
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file()) sums[e.path().filename().string()] = sha256_hex(text::read_file(e.path().string()));
+  return sums;
+}
 
 json error_json(const std::string& code, const std::string& message, const std::string& field = "", int line = 0) {
   json e = {{"code", code}, {"message", message}};
@@ -170,13 +217,20 @@ json error_json(const std::string& code, const std::string& message, const std::
 
 void JobRunner::run_trial(const TrialRecord& t) {
   const auto start = std::chrono::steady_clock::now();
-  const fs::path dir = trial_dir(t.id), work = dir / "work", results = dir / "results";
-  events_.publish(t.id, {{"status", "running"}});
-  log_line({{"event", "trial"}, {"trial", t.id}, {"state", "running"}});
+  const fs::path dir = trial_dir(t.id), work = dir / ("work-" + std::to_string(t.attempt)), results = dir / "results";
+  {
+    std::lock_guard lock(mutex_);
+    held_[t.id] = {t.attempt, false};
+  }
+  changes_.notify();
+  log_line({{"event", "trial"}, {"trial", t.id}, {"state", "running"}, {"worker", options_.name}, {"attempt", t.attempt}});
   std::string status = "done";
-  json error = nullptr;
+  json error = nullptr, checksums = nullptr;
+  std::error_code ec;
+  // Earlier attempts' folders (their workers died or lost the lease): they never publish.
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.path().filename().string().rfind("work", 0) == 0 && e.path() != work) fs::remove_all(e.path(), ec);
   try {
-    std::error_code ec;
     fs::remove_all(work, ec);
     const PipelineOptions options = PipelineOptions::from_json(t.options, "options");
     TrialInputs in;
@@ -208,37 +262,52 @@ void JobRunner::run_trial(const TrialRecord& t) {
         in.*f.content = text::read_file(p.string());
         in.*f.name = p.filename().string();
       }
-    StoreObserver observer(store_, events_, metrics_, t, [this, &t] { return cancel_requested(t.id); });
+    StoreObserver observer(store_, changes_, t, [this, &t] { return stop_requested(t.id); });
     run_pipeline(in, options, work.string(), &observer);
-    fs::remove_all(results, ec);
-    fs::rename(work, results);  // the finished results appear at once
+    checksums = result_checksums(work);
   } catch (const InputError& e) {
     status = "failed";
     error = error_json("invalid_input", e.what(), e.field(), e.line());
   } catch (const std::exception& e) {
-    status = cancel_requested(t.id) ? "cancelled" : "failed";
+    status = stop_requested(t.id) ? "cancelled" : "failed";
     if (status == "failed") error = error_json("stage_failed", e.what());
   }
-  if (status != "done") {
-    std::error_code ec;
-    fs::remove_all(work, ec);
-    // Stages left running or pending are marked with the trial's fate.
-    if (const auto now = store_.trial(t.id))
-      for (auto s : now->stages)
-        if (s.state == "running" || s.state == "pending") {
-          s.state = status == "cancelled" ? "cancelled" : (s.state == "running" ? "failed" : "skipped");
-          store_.set_stage(t.id, s);
-        }
-  }
-  store_.set_status(t.id, status, error);
+  // The results appear at once, and only if this attempt still holds the trial. Idempotent, as a
+  // transaction retried after a dropped connection calls it again.
+  auto publish = [&] {
+    if (status != "done" || !fs::exists(work)) return;
+    fs::remove_all(results);  // an earlier attempt's, moved but never committed
+    fs::rename(work, results);
+  };
+  bool held = false;
+  bool shutting_down = false;
   {
     std::lock_guard lock(mutex_);
-    cancel_requests_.erase(t.id);
+    shutting_down = stopping_ && status != "done";
   }
-  json done = {{"status", status}};
-  if (!error.is_null()) done["error"] = error;
-  events_.publish(t.id, done);
-  log_line({{"event", "trial"}, {"trial", t.id}, {"state", status},
+  try {
+    if (shutting_down) {
+      store_.release_trial(t.id, options_.name, t.attempt);  // cancelled trials are not released: they end below
+      held = store_.trial(t.id).value_or(TrialRecord{}).status == "running";
+      if (held) held = store_.finish_trial(t.id, options_.name, t.attempt, "cancelled", nullptr, nullptr, publish);
+      status = held ? "cancelled" : "released";
+    } else {
+      held = store_.finish_trial(t.id, options_.name, t.attempt, status, error, checksums, publish);
+    }
+  } catch (const std::exception& e) {
+    log_line({{"event", "finish_failed"}, {"trial", t.id}, {"error", e.what()}});
+  }
+  fs::remove_all(work, ec);
+  try {
+    if (!held && !store_.trial(t.id)) fs::remove_all(dir, ec);  // deleted while it ran
+  } catch (const std::exception&) {  // the store is down: the lease runs out and the trial re-runs
+  }
+  {
+    std::lock_guard lock(mutex_);
+    held_.erase(t.id);
+  }
+  changes_.notify();
+  log_line({{"event", "trial"}, {"trial", t.id}, {"state", held || status == "released" ? status : "abandoned"}, {"worker", options_.name},
             {"seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}});
 }
 

@@ -1,10 +1,13 @@
 #include "server.h"
 
+#include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <regex>
+#include <thread>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
@@ -62,8 +65,8 @@ json table_json(const std::string& file, const Storage& s) {
 
 class Api {
  public:
-  Api(const ServerOptions& o, Store& store, EventHub& events, Metrics& metrics, JobRunner& jobs)
-      : o_(o), store_(store), events_(events), metrics_(metrics), jobs_(jobs) {}
+  Api(const ServerOptions& o, Store& store, ChangeSignal& changes, std::atomic<long>& requests, JobRunner& jobs)
+      : o_(o), store_(store), changes_(changes), requests_(requests), jobs_(jobs) {}
 
   void install(httplib::Server& s) {
     s.Get("/healthz", [&](const auto&, auto& res) { send_json(res, 200, {{"status", "ok"}}); });
@@ -99,8 +102,8 @@ class Api {
  private:
   const ServerOptions& o_;
   Store& store_;
-  EventHub& events_;
-  Metrics& metrics_;
+  ChangeSignal& changes_;
+  std::atomic<long>& requests_;
   JobRunner& jobs_;
 
   bool auth(const httplib::Request& req, httplib::Response& res) {
@@ -121,20 +124,27 @@ class Api {
     return t;
   }
 
+  // From the store, so that every worker process' trials are counted.
   void metrics(httplib::Response& res) {
+    const StoreMetrics m = store_.metrics();
     std::string out = "# HELP cpgait_trials Trials by status.\n# TYPE cpgait_trials gauge\n";
     for (const char* s : {"queued", "running", "done", "failed", "cancelled"})
-      out += std::string("cpgait_trials{status=\"") + s + "\"} " + std::to_string(store_.count_trials(s)) + "\n";
+      out += std::string("cpgait_trials{status=\"") + s + "\"} " + std::to_string(m.trials_by_status.count(s) ? m.trials_by_status.at(s) : 0) + "\n";
     out += "# HELP cpgait_queue_depth Trials waiting for a worker.\n# TYPE cpgait_queue_depth gauge\n";
-    out += "cpgait_queue_depth " + std::to_string(store_.count_trials("queued")) + "\n";
-    out += "# HELP cpgait_stage_seconds Stage run time.\n# TYPE cpgait_stage_seconds summary\n";
-    std::lock_guard lock(metrics_.mutex);
-    for (const auto& [stage, v] : metrics_.stage_seconds) {
+    out += "cpgait_queue_depth " + std::to_string(m.trials_by_status.count("queued") ? m.trials_by_status.at("queued") : 0) + "\n";
+    out += "# HELP cpgait_worker_running_trials Trials each worker holds a lease on.\n# TYPE cpgait_worker_running_trials gauge\n";
+    for (const auto& [worker, n] : m.running_by_worker)
+      out += "cpgait_worker_running_trials{worker=\"" + worker + "\"} " + std::to_string(n) + "\n";
+    out += "# HELP cpgait_lease_expiries_total Running trials re-queued because their worker stopped renewing.\n"
+           "# TYPE cpgait_lease_expiries_total counter\n";
+    out += "cpgait_lease_expiries_total " + std::to_string(m.lease_expiries) + "\n";
+    out += "# HELP cpgait_stage_seconds Stage run time over the stored trials.\n# TYPE cpgait_stage_seconds summary\n";
+    for (const auto& [stage, v] : m.stage_seconds) {
       out += "cpgait_stage_seconds_sum{stage=\"" + stage + "\"} " + std::to_string(v.first) + "\n";
       out += "cpgait_stage_seconds_count{stage=\"" + stage + "\"} " + std::to_string(v.second) + "\n";
     }
-    out += "# HELP cpgait_http_requests_total Requests served.\n# TYPE cpgait_http_requests_total counter\n";
-    out += "cpgait_http_requests_total " + std::to_string(metrics_.requests) + "\n";
+    out += "# HELP cpgait_http_requests_total Requests served by this process.\n# TYPE cpgait_http_requests_total counter\n";
+    out += "cpgait_http_requests_total " + std::to_string(requests_.load()) + "\n";
     res.set_content(out, "text/plain; version=0.0.4");
   }
 
@@ -406,7 +416,7 @@ class Api {
     if (!t) return;
     jobs_.cancel(id);
     store_.delete_trial(id);
-    events_.forget(id);
+    changes_.notify();
     std::error_code ec;
     fs::remove_all(jobs_.trial_dir(id), ec);
     res.status = 204;
@@ -420,54 +430,68 @@ class Api {
     send_json(res, 202, {{"id", id}, {"status", "cancelling"}});
   }
 
+  // Progress as Server-Sent Events, from the store: whichever process runs the trial, its stage
+  // changes show up here (at once when this process runs it, else within the 250 ms poll).
   void sse(const std::string& id, httplib::Response& res) {
     if (!find(id, res)) return;
     res.set_header("Cache-Control", "no-cache");
-    res.set_chunked_content_provider("text/event-stream", [this, id, after = 0L, sent_snapshot = false](size_t, httplib::DataSink& sink) mutable {
+    struct Seen {
+      bool snapshot = false;
+      std::map<std::string, std::pair<std::string, double>> stages;  // name -> (state, progress)
+      std::string status;
+      std::uint64_t version = 0;
+      std::chrono::steady_clock::time_point last_write = std::chrono::steady_clock::now();
+    };
+    res.set_chunked_content_provider("text/event-stream", [this, id, seen = Seen{}](size_t, httplib::DataSink& sink) mutable {
       auto send = [&](const char* event, const json& data) {
+        seen.last_write = std::chrono::steady_clock::now();
         const std::string msg = std::string("event: ") + event + "\ndata: " + json_text(data) + "\n\n";
         return sink.write(msg.data(), msg.size());
       };
       auto finished = [](const std::string& s) { return s == "done" || s == "failed" || s == "cancelled"; };
-      if (!sent_snapshot) {
-        sent_snapshot = true;
-        const auto t = store_.trial(id);
-        if (!t) return false;
-        if (!send("snapshot", t->to_json())) return false;
-        if (finished(t->status)) {
-          send("end", {{"status", t->status}});
-          sink.done();
-          return true;
-        }
-      }
-      for (const auto& [seq, e] : events_.wait(id, after, 15000)) {
-        after = seq;
-        if (!send("progress", e)) return false;
-        if (e.contains("status") && finished(e["status"].get<std::string>())) {
-          send("end", {{"status", e["status"]}});
-          sink.done();
-          return true;
-        }
-      }
-      // Heartbeat, and a check in case the trial ended while nobody was publishing (deleted).
       const auto t = store_.trial(id);
-      if (!t) {
+      if (!t) {  // deleted
         sink.done();
         return true;
       }
-      if (finished(t->status) && after == 0) {
+      if (!seen.snapshot) {
+        seen.snapshot = true;
+        seen.status = t->status;
+        for (const auto& s : t->stages) seen.stages[s.name] = {s.state, s.progress};
+        if (!send("snapshot", t->to_json())) return false;
+      } else {
+        for (const auto& s : t->stages) {
+          auto& last = seen.stages[s.name];
+          if (last.first == s.state && last.second == s.progress) continue;
+          last = {s.state, s.progress};
+          if (!send("progress", {{"status", "running"}, {"stage", s.name}, {"state", s.state}, {"progress", s.progress}})) return false;
+        }
+        if (t->status != seen.status) {
+          seen.status = t->status;
+          json e = {{"status", t->status}};
+          if (!t->error.is_null()) e["error"] = t->error;
+          if (!send("progress", e)) return false;
+        }
+      }
+      if (finished(t->status)) {
         send("end", {{"status", t->status}});
         sink.done();
         return true;
       }
-      const std::string beat = ": keep-alive\n\n";
-      return sink.write(beat.data(), beat.size());
+      seen.version = changes_.wait(seen.version, 250);
+      if (std::chrono::steady_clock::now() - seen.last_write > std::chrono::seconds(15)) {
+        seen.last_write = std::chrono::steady_clock::now();
+        const std::string beat = ": keep-alive\n\n";
+        return sink.write(beat.data(), beat.size());
+      }
+      return true;
     });
   }
 
+  // A finished trial's results, or the running attempt's partial ones.
   fs::path result_dir(const TrialRecord& t) {
     const fs::path dir = jobs_.trial_dir(t.id);
-    return fs::exists(dir / "results") ? dir / "results" : dir / "work";
+    return fs::exists(dir / "results") ? dir / "results" : dir / ("work-" + std::to_string(t.attempt));
   }
 
   void results(const std::string& id, const std::string& stage, httplib::Response& res) {
@@ -549,9 +573,10 @@ class HttpServer : public httplib::Server {
 struct ServiceCore {
   explicit ServiceCore(const ServerOptions& o)
       : o(o),
-        store(prepare_data_dir(o.data_dir)),
-        jobs(store, events, metrics, o.data_dir, o.workers),
-        api(o, store, events, metrics, jobs) {
+        store(prepare_data_dir(o.data_dir, o.store)),
+        jobs(store, changes, o.data_dir,
+             {o.workers, o.lease_s, o.heartbeat_s, store.dialect() == SqlDialect::kSqlite, ""}),
+        api(o, store, changes, requests, jobs) {
     register_builtin_model();
     server.new_task_queue = [] { return new httplib::ThreadPool(64); };
     server.set_payload_max_length(o.max_upload_bytes);
@@ -559,8 +584,7 @@ struct ServiceCore {
     server.set_write_timeout(o.read_timeout_s, 0);
     server.set_pre_routing_handler([this](const httplib::Request&, httplib::Response&) {
       t_request_start = std::chrono::steady_clock::now();
-      std::lock_guard lock(metrics.mutex);
-      metrics.requests++;
+      requests++;
       return httplib::Server::HandlerResponse::Unhandled;
     });
     // Every error leaves as JSON, including httplib's own (413 too large, 400 bad request, 404).
@@ -581,11 +605,11 @@ struct ServiceCore {
     api.install(server);
   }
 
-  // The folders the store and the jobs write into; returns the store's database path.
-  static std::string prepare_data_dir(const std::string& data_dir) {
+  // The folders the store and the jobs write into; returns the store's spec (default: SQLite in the data folder).
+  static std::string prepare_data_dir(const std::string& data_dir, const std::string& store) {
     ensure_directory((fs::path(data_dir) / "trials").string());
     ensure_directory((fs::path(data_dir) / "models").string());
-    return (fs::path(data_dir) / "cpgait.sqlite").string();
+    return store.empty() ? "sqlite:" + (fs::path(data_dir) / "cpgait.sqlite").string() : store;
   }
 
   // cpgait's own fixture model is always there, so a first upload needs no model upload.
@@ -602,8 +626,8 @@ struct ServiceCore {
 
   const ServerOptions& o;
   Store store;
-  EventHub events;
-  Metrics metrics;
+  ChangeSignal changes;
+  std::atomic<long> requests{0};
   JobRunner jobs;
   Api api;
   HttpServer server;
@@ -659,12 +683,34 @@ int serve(const ServerOptions& o) {
   g_server = &server;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  std::printf("listening on http://%s:%d\ndashboard: http://%s:%d/  data: %s  workers: %d%s\n", o.host.c_str(), port,
-              o.host.c_str(), port, fs::absolute(o.data_dir).string().c_str(), o.workers, o.token.empty() ? "" : "  token required");
+  std::printf("listening on http://%s:%d\ndashboard: http://%s:%d/  data: %s  store: %s  workers: %d%s\n", o.host.c_str(), port,
+              o.host.c_str(), port, fs::absolute(o.data_dir).string().c_str(),
+              core.store.dialect() == SqlDialect::kPostgres ? "postgresql" : "sqlite", o.workers, o.token.empty() ? "" : "  token required");
   std::fflush(stdout);
   server.listen_after_bind();
   g_server = nullptr;
   core.jobs.stop();
+  return 0;
+}
+
+namespace {
+std::atomic<bool> g_worker_stop{false};
+}  // namespace
+
+int run_worker(const WorkerOptions& o) {
+  ensure_directory((fs::path(o.data_dir) / "trials").string());
+  Store store(o.store, o.threads + 1);
+  ChangeSignal changes;
+  JobRunner jobs(store, changes, o.data_dir, {o.threads, o.lease_s, o.heartbeat_s, false, o.name});
+  std::signal(SIGINT, [](int) { g_worker_stop = true; });
+  std::signal(SIGTERM, [](int) { g_worker_stop = true; });
+  jobs.start();
+  std::printf("worker %s ready: store %s (schema %d), data %s, threads %d, lease %.1f s\n", jobs.name().c_str(),
+              store.dialect() == SqlDialect::kPostgres ? "postgresql" : "sqlite", store.schema_version(),
+              fs::absolute(o.data_dir).string().c_str(), o.threads, o.lease_s);
+  std::fflush(stdout);
+  while (!g_worker_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  jobs.stop();  // a running trial finishes its current stage check, then is left to its lease
   return 0;
 }
 

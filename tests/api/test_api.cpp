@@ -19,6 +19,7 @@
 #include "cpgait/model/osim_reader.h"
 #include "c3d_writer.h"
 #include "json_schema_check.h"
+#include "api_helpers.h"
 #include "server_process.h"
 #include "test_support.h"
 
@@ -28,25 +29,19 @@
 namespace fs = std::filesystem;
 using nlohmann::json;
 using cpgait::apitest::ServerProcess;
+using namespace cpgait::apitest;
+
+// Under CPGAIT_TEST_STORE=postgresql (ctest's Postgres.* copies of these tests) every server keeps
+// its store in PostgreSQL; without a server to use, they all skip.
+class StoreEnvironment : public ::testing::Environment {
+ public:
+  void SetUp() override {
+    if (store_is_postgres()) REQUIRE_POSTGRES();
+  }
+};
+const auto* const kStoreEnvironment = ::testing::AddGlobalTestEnvironment(new StoreEnvironment);
 
 namespace {
-
-std::string slurp(const std::string& path) { return cpgait::text::read_file(path); }
-
-std::string synthetic_trc(double duration_s, std::uint32_t seed = 1) {
-  const cpgait::Model m = cpgait::read_osim(cpgait::refdata::fixture("models/walker.osim")).model;
-  cpgait::fixtures::SyntheticTrialOptions o;
-  o.duration_s = duration_s;
-  o.noise_m = 0.0005;
-  o.seed = seed;
-  return cpgait::format_trc(cpgait::fixtures::synthesize_trial(m, o).markers, "mm");
-}
-
-httplib::MultipartFormDataItems trial_form(const std::string& trc, const std::string& trc_name, const json& options) {
-  return {{"markers", trc, trc_name, "text/plain"}, {"options", options.dump(), "options.json", "application/json"}};
-}
-
-json body(const httplib::Result& r) { return json::parse(r->body); }
 
 // Follows the trial's Server-Sent Events to the end; returns the final status and counts events.
 std::string follow_events(httplib::Client& c, const std::string& id, int* progress_events = nullptr) {
@@ -67,19 +62,6 @@ std::string follow_events(httplib::Client& c, const std::string& id, int* progre
   EXPECT_TRUE(r) << "SSE request failed";
   if (progress_events) *progress_events = count;
   return status;
-}
-
-std::string wait_finished(httplib::Client& c, const std::string& id, double timeout_s) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < deadline) {
-    auto r = c.Get(("/api/v1/trials/" + id).c_str());
-    if (r && r->status == 200) {
-      const std::string s = body(r)["status"];
-      if (s == "done" || s == "failed" || s == "cancelled") return s;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return "timeout";
 }
 
 int run_cli(const std::string& args) {
