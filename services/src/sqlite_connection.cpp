@@ -53,10 +53,11 @@ class SqliteConnection : public SqlConnection {
 
   void exec_script(const std::string& sql) override {
     char* err = nullptr;
-    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
-      const std::string msg = err ? err : "unknown";
+    if (const int rc = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err); rc != SQLITE_OK) {
+      const std::string msg = "sqlite: " + std::string(err ? err : "unknown") + " in: " + sql;
       sqlite3_free(err);
-      throw std::runtime_error("sqlite: " + msg + " in: " + sql);
+      if (rc == SQLITE_BUSY) throw SqlTransientError(msg);  // another process held the write lock past the busy timeout
+      throw std::runtime_error(msg);
     }
   }
 

@@ -1,6 +1,8 @@
 #pragma once
 // What the API tests do with a server: synthetic trials of the built-in walker, upload forms, JSON
 // bodies, waiting for a trial to end.
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cstdint>
 #include <nlohmann/json.hpp>
@@ -47,6 +49,27 @@ inline std::string wait_finished(httplib::Client& c, const std::string& id, doub
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return "timeout";
+}
+
+// Follows the trial's Server-Sent Events to the end; returns the final status and counts events.
+inline std::string follow_events(httplib::Client& c, const std::string& id, int* progress_events = nullptr) {
+  std::string buffer, status;
+  int count = 0;
+  c.set_read_timeout(120, 0);
+  auto r = c.Get(("/api/v1/trials/" + id + "/events").c_str(), [&](const char* data, size_t n) {
+    buffer.append(data, n);
+    std::size_t p;
+    while ((p = buffer.find("\n\n")) != std::string::npos) {
+      const std::string msg = buffer.substr(0, p);
+      buffer.erase(0, p + 2);
+      if (msg.rfind("event: progress", 0) == 0) ++count;
+      if (msg.rfind("event: end", 0) == 0) status = json::parse(msg.substr(msg.find("data: ") + 6))["status"];
+    }
+    return true;
+  });
+  EXPECT_TRUE(r) << "SSE request failed";
+  if (progress_events) *progress_events = count;
+  return status;
 }
 
 }  // namespace cpgait::apitest

@@ -43,27 +43,6 @@ const auto* const kStoreEnvironment = ::testing::AddGlobalTestEnvironment(new St
 
 namespace {
 
-// Follows the trial's Server-Sent Events to the end; returns the final status and counts events.
-std::string follow_events(httplib::Client& c, const std::string& id, int* progress_events = nullptr) {
-  std::string buffer, status;
-  int count = 0;
-  c.set_read_timeout(120, 0);
-  auto r = c.Get(("/api/v1/trials/" + id + "/events").c_str(), [&](const char* data, size_t n) {
-    buffer.append(data, n);
-    std::size_t p;
-    while ((p = buffer.find("\n\n")) != std::string::npos) {
-      const std::string msg = buffer.substr(0, p);
-      buffer.erase(0, p + 2);
-      if (msg.rfind("event: progress", 0) == 0) ++count;
-      if (msg.rfind("event: end", 0) == 0) status = json::parse(msg.substr(msg.find("data: ") + 6))["status"];
-    }
-    return true;
-  });
-  EXPECT_TRUE(r) << "SSE request failed";
-  if (progress_events) *progress_events = count;
-  return status;
-}
-
 int run_cli(const std::string& args) {
   const int s = std::system((std::string(CPGAIT_BINARY) + " " + args + " > /dev/null 2>&1").c_str());
   return WIFEXITED(s) ? WEXITSTATUS(s) : -1;

@@ -90,12 +90,19 @@ TEST(ScaleOut, ThreeWorkersRunTwoHundredTrialsOnceEachAsCpgaitRunDoes) {
   }
   httplib::Client c("127.0.0.1", api.port());
   std::map<std::string, int> walk_of;  // trial id -> k
+  std::string last;
   for (int i = 0; i < 200; ++i) {
     const int k = i % 4;
     auto r = c.Post("/api/v1/trials", trial_form(trcs[static_cast<std::size_t>(k)], "walk" + std::to_string(k) + ".trc", {{"model", "walker"}}));
     ASSERT_TRUE(r && r->status == 202) << (r ? r->body : "no answer");
     walk_of[body(r)["id"]] = k;
+    last = body(r)["id"];
   }
+  // Server-Sent Events from the API server follow a trial that a worker process runs (the last one
+  // queued, still waiting when the stream opens).
+  int progress_events = 0;
+  EXPECT_EQ(follow_events(c, last, &progress_events), "done");
+  EXPECT_GT(progress_events, 0);
   ASSERT_TRUE(wait_all_done([&]() -> httplib::Client& { return c; }, 200, 600)) << count_status(c, "done") << " done";
   EXPECT_EQ(count_status(c, "failed"), 0);
 
