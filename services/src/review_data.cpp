@@ -2,13 +2,19 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <set>
 
 #include "cpgait/capture/external_loads.h"
 #include "cpgait/capture/marker_file.h"
 #include "cpgait/capture/storage.h"
 #include "cpgait/capture/trc.h"
+#include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/applied_loads.h"
 #include "cpgait/kinematics/forward_kinematics.h"
+#include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
 
 namespace cpgait::services {
@@ -84,6 +90,107 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
           {"model_marker_names", model_markers},
           {"measured_marker_names", measured_names},
           {"frames", frames}};
+}
+
+}  // namespace cpgait::services
+
+namespace cpgait::services {
+
+namespace {
+
+// 'r', 'l', or 0 for a column of neither side ("hip_flexion_l_moment" -> 'l').
+char column_side(std::string name) {
+  for (const char* suffix : {"_moment", "_force"})
+    if (name.size() > std::strlen(suffix) && name.compare(name.size() - std::strlen(suffix), std::string::npos, suffix) == 0)
+      name.resize(name.size() - std::strlen(suffix));
+  if (name.size() > 2 && name[name.size() - 2] == '_' && (name.back() == 'r' || name.back() == 'l')) return name.back();
+  return 0;
+}
+
+}  // namespace
+
+json trial_cycles_json(const std::string& model_path, const std::string& marker_set_path, const std::string& results_dir,
+                       const std::string& trial_name, const std::string& grf_mot, const std::string& loads_xml) {
+  OsimReadOptions ro;
+  ro.marker_set_file = marker_set_path;
+  const Model model = read_osim(model_path, ro).model;
+  const std::string base = results_dir + "/" + trial_name;
+  const Storage ik = read_storage(base + "_ik.mot");
+  std::vector<double> ik_time(ik.time().data(), ik.time().data() + ik.num_rows());
+
+  // Heel strikes of each foot.
+  std::map<char, std::vector<double>> strikes;
+  std::map<char, std::string> source;
+  if (!grf_mot.empty()) {
+    const Storage grf = parse_storage(grf_mot, "grf.mot");
+    for (const auto& f : parse_external_loads(loads_xml, "loads.xml").forces) {
+      const char side = column_side(f.applied_to_body);
+      const int col = grf.column(f.force_identifier + "y");
+      if (!side || col < 0 || strikes[side].size() >= 2) continue;
+      strikes[side] = contact_onsets(grf.time(), grf.data.col(col));
+      source[side] = "GRF " + f.force_identifier + "y (20 N threshold)";
+    }
+  }
+  for (const char side : {'r', 'l'}) {
+    if (strikes[side].size() >= 2) continue;
+    Eigen::MatrixXd q(ik.num_rows(), model.num_coordinates());
+    for (int c = 0; c < model.num_coordinates(); ++c) {
+      const int col = ik.column(model.coordinates[c].name);
+      const double scale = ik.in_degrees.value_or(true) && model.coordinates[c].is_angle() ? M_PI / 180.0 : 1.0;
+      q.col(c) = col >= 0 ? Eigen::VectorXd(ik.data.col(col) * scale) : Eigen::VectorXd::Constant(ik.num_rows(), model.default_coordinates()[c]);
+    }
+    const std::string foot = model.body_index(std::string("calcn_") + side) >= 0 ? std::string("calcn_") + side : std::string("foot_") + side;
+    if (model.body_index(foot) < 0) continue;
+    strikes[side] = heel_strikes_zeni(model, ik_time, q, foot);
+    source[side] = "kinematics (Zeni 2008), " + foot;
+  }
+
+  constexpr int kSamples = 101;
+  json percent = json::array();
+  for (int k = 0; k < kSamples; ++k) percent.push_back(k);
+  std::set<std::string> muscles;
+  for (const auto& m : model.muscles) muscles.insert(m.name);
+  struct Panel {
+    const char *name, *suffix;
+  };
+  json panels = json::array();
+  for (const Panel& p : {Panel{"kinematics", "_ik.mot"}, Panel{"moments", "_id.sto"}, Panel{"activations", "_StaticOptimization_activation.sto"}}) {
+    const std::string file = base + p.suffix;
+    if (!std::filesystem::exists(file)) continue;
+    const Storage s = read_storage(file);
+    std::vector<double> time(s.time().data(), s.time().data() + s.num_rows());
+    json series = json::array();
+    for (int c = 1; c < s.num_columns(); ++c) {
+      const std::string& name = s.labels[static_cast<std::size_t>(c)];
+      if (std::string(p.name) == "activations" && !muscles.count(name)) continue;  // reserves and residuals
+      const char side = column_side(name) ? column_side(name) : 'r';
+      const auto curves = cycle_curves(time, s.data.col(c), strikes[side], kSamples, true);
+      if (curves.empty()) continue;
+      json strides = json::array();
+      Eigen::VectorXd mean = Eigen::VectorXd::Zero(kSamples), sq = Eigen::VectorXd::Zero(kSamples);
+      for (const auto& curve : curves) {
+        strides.push_back(std::vector<double>(curve.data(), curve.data() + kSamples));
+        mean += curve.col(0);
+      }
+      mean /= static_cast<double>(curves.size());
+      for (const auto& curve : curves) sq += (curve.col(0) - mean).array().square().matrix();
+      const Eigen::VectorXd sd = curves.size() > 1 ? Eigen::VectorXd((sq / static_cast<double>(curves.size() - 1)).array().sqrt()) : Eigen::VectorXd(sq * 0.0);
+      const bool moments = std::string(p.name) == "moments", activations = std::string(p.name) == "activations";
+      const int ci = model.coordinate_index(moments ? name.substr(0, name.rfind('_')) : name);
+      const bool linear = ci >= 0 && !model.coordinates[static_cast<std::size_t>(ci)].is_angle();
+      const char* unit = activations ? "" : moments ? (linear ? "N" : "N·m") : (linear ? "m" : "deg");
+      series.push_back({{"name", name}, {"side", side == 'l' ? "l" : "r"}, {"unit", unit}, {"strides", strides},
+                        {"mean", std::vector<double>(mean.data(), mean.data() + kSamples)},
+                        {"sd", std::vector<double>(sd.data(), sd.data() + kSamples)}});
+    }
+    panels.push_back({{"name", p.name}, {"file", trial_name + p.suffix}, {"series", series}});
+  }
+  json hs = json::object(), src = json::object();
+  for (const char side : {'r', 'l'}) {
+    hs[std::string(1, side)] = strikes[side];
+    if (source.count(side)) src[std::string(1, side)] = source[side];
+  }
+  return {{"percent", percent}, {"heel_strikes_s", hs}, {"heel_strike_source", src}, {"panels", panels}};
 }
 
 }  // namespace cpgait::services

@@ -15,3 +15,16 @@ nlohmann::json trial_kinematics_json(const std::string& model_path, const std::s
                                      const std::string& grf_mot, const std::string& loads_xml);
 
 }  // namespace cpgait::services
+
+namespace cpgait::services {
+
+// Gait-cycle curves for the dashboard's cycle plots: the trial's kinematics (_ik.mot), joint moments
+// (_id.sto) and muscle activations (static optimization's), each column cut at its side's heel
+// strikes (right for _r columns and for those without a side, left for _l), every stride resampled
+// to 0-100 % in 1 % steps, with the strides' mean and sample SD. Heel strikes: where the vertical
+// force of the GRF applied to that foot rises through 20 N, else Zeni et al.'s kinematic method.
+// Files absent from results_dir are left out.
+nlohmann::json trial_cycles_json(const std::string& model_path, const std::string& marker_set_path, const std::string& results_dir,
+                                 const std::string& trial_name, const std::string& grf_mot, const std::string& loads_xml);
+
+}  // namespace cpgait::services

@@ -85,6 +85,8 @@ class Api {
           [&](const auto& req, auto& res) { if (auth(req, res)) results(req.matches[1], req.matches[2], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/kinematics)",
           [&](const auto& req, auto& res) { if (auth(req, res)) kinematics(req.matches[1], res); });
+    s.Get(R"(/api/v1/trials/([^/]+)/cycles)",
+          [&](const auto& req, auto& res) { if (auth(req, res)) cycles(req.matches[1], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/files/(.+))",
           [&](const auto& req, auto& res) { if (auth(req, res)) file(req.matches[1], req.matches[2], res); });
     s.Get(R"(/api/v1/.*)", [&](const auto&, auto& res) { send_error(res, 404, "not_found", "no such endpoint"); });
@@ -518,35 +520,59 @@ class Api {
     send_json(res, 200, {{"trial", id}, {"stage", stage}, {"summary", s->summary}, {"tables", tables}});
   }
 
+  // What the review endpoints read of a trial whose IK is done: the model IK ran on (a scaled
+  // trial's, markers placed), its marker set, the markers, and the ground reactions when there are any.
+  struct ReviewInputs {
+    std::string model, marker_set, markers_file, grf, loads;
+  };
+  std::optional<ReviewInputs> review_inputs(const TrialRecord& t, httplib::Response& res) {
+    const auto ik = std::find_if(t.stages.begin(), t.stages.end(), [](const StageRecord& s) { return s.name == "ik"; });
+    if (ik == t.stages.end() || ik->state != "done") {
+      send_error(res, 409, "not_ready", "inverse kinematics is not done yet", "stage");
+      return std::nullopt;
+    }
+    const fs::path dir = jobs_.trial_dir(t.id), inputs = dir / "inputs";
+    const std::string model_id = t.options.value("model", "");
+    ReviewInputs r;
+    // Ground reactions: uploaded, or derived from a C3D's force plates by the pipeline.
+    fs::path grf = inputs / "grf.mot", loads = inputs / "loads.xml";
+    if (!fs::exists(grf)) grf = result_dir(t) / (t.name + "_grf.mot"), loads = result_dir(t) / (t.name + "_grf.xml");
+    if (fs::exists(grf) && fs::exists(loads)) r.grf = text::read_file(grf.string()), r.loads = text::read_file(loads.string());
+    // Footage trials: the markers are the capture stage's TRC, on the tag corners it added to the model.
+    const bool footage = fs::is_directory(inputs / "videos");
+    r.markers_file = footage ? (result_dir(t) / (t.name + ".trc")).string() : (inputs / "markers.trc").string();
+    r.marker_set = footage ? (result_dir(t) / (t.name + "_tag_markers.xml")).string() : jobs_.marker_set_path(model_id);
+    r.model = jobs_.model_path(model_id);
+    if (const fs::path scaled = result_dir(t) / (t.name + "_scaled.osim"); fs::exists(scaled)) {
+      r.model = scaled.string();
+      r.marker_set.clear();
+    }
+    return r;
+  }
+
   void kinematics(const std::string& id, httplib::Response& res) {
     auto t = find(id, res);
     if (!t) return;
-    const auto ik = std::find_if(t->stages.begin(), t->stages.end(), [](const StageRecord& s) { return s.name == "ik"; });
-    if (ik == t->stages.end() || ik->state != "done")
-      return send_error(res, 409, "not_ready", "inverse kinematics is not done yet", "stage");
-    const fs::path dir = jobs_.trial_dir(id), inputs = dir / "inputs";
-    const std::string model_id = t->options.value("model", "");
-    // Ground reactions: uploaded, or derived from a C3D's force plates by the pipeline.
-    fs::path grf = inputs / "grf.mot", loads = inputs / "loads.xml";
-    if (!fs::exists(grf)) grf = result_dir(*t) / (t->name + "_grf.mot"), loads = result_dir(*t) / (t->name + "_grf.xml");
-    const bool have_grf = fs::exists(grf) && fs::exists(loads);
-    // Footage trials: the markers are the capture stage's TRC, on the tag corners it added to the model.
-    const bool footage = fs::is_directory(inputs / "videos");
-    const std::string markers = footage ? (result_dir(*t) / (t->name + ".trc")).string() : (inputs / "markers.trc").string();
-    std::string marker_set = footage ? (result_dir(*t) / (t->name + "_tag_markers.xml")).string() : jobs_.marker_set_path(model_id);
-    // A scaled trial's IK ran on the model its scale stage wrote, markers placed.
-    std::string model = jobs_.model_path(model_id);
-    if (const fs::path scaled = result_dir(*t) / (t->name + "_scaled.osim"); fs::exists(scaled)) {
-      model = scaled.string();
-      marker_set.clear();
-    }
+    const auto in = review_inputs(*t, res);
+    if (!in) return;
     try {
       send_json(res, 200,
-                trial_kinematics_json(model, marker_set,
-                                      (result_dir(*t) / (t->name + "_ik.mot")).string(), text::read_file(markers),
-                                      have_grf ? text::read_file(grf.string()) : "", have_grf ? text::read_file(loads.string()) : ""));
+                trial_kinematics_json(in->model, in->marker_set, (result_dir(*t) / (t->name + "_ik.mot")).string(),
+                                      text::read_file(in->markers_file), in->grf, in->loads));
     } catch (const std::exception& e) {
       send_error(res, 409, "not_ready", std::string("kinematics not available: ") + e.what());
+    }
+  }
+
+  void cycles(const std::string& id, httplib::Response& res) {
+    auto t = find(id, res);
+    if (!t) return;
+    const auto in = review_inputs(*t, res);
+    if (!in) return;
+    try {
+      send_json(res, 200, trial_cycles_json(in->model, in->marker_set, result_dir(*t).string(), t->name, in->grf, in->loads));
+    } catch (const std::exception& e) {
+      send_error(res, 409, "not_ready", std::string("gait cycles not available: ") + e.what());
     }
   }
 

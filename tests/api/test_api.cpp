@@ -183,6 +183,67 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
   fs::remove_all(dir);
 }
 
+// Gait-cycle curves for the review (issue 26): every stride cut at its foot's force-plate heel
+// strikes and resampled to 0-100 %, the strides' mean and SD.
+TEST(ApiReference, GaitCyclesCutEachStrideAtItsHeelStrikes) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  for (const auto& f : {"OutputReference/subject01_simbody.osim", "subject01_walk1.trc", "subject01_walk1_grf.mot"}) REQUIRE_REFERENCE(pl + f);
+  const std::string dir = cpgait::refdata::temp_dir("api_cycles");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{
+                                        {"model", slurp(pl + "OutputReference/subject01_simbody.osim"), "subject01_simbody.osim", ""}});
+  ASSERT_EQ(m->status, 201);
+  httplib::MultipartFormDataItems form =
+      trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", {{"model", body(m)["id"]}, {"stages", {"ik", "id", "so"}}});
+  form.push_back({"grf", slurp(pl + "subject01_walk1_grf.mot"), "subject01_walk1_grf.mot", ""});
+  form.push_back({"loads", slurp(pl + "subject01_walk1_grf.xml"), "subject01_walk1_grf.xml", ""});
+  const std::string id = body(c.Post("/api/v1/trials", form))["id"];
+  EXPECT_EQ(c.Get("/api/v1/trials/ffffffffffffffff/cycles")->status, 404);
+  ASSERT_EQ(wait_finished(c, id, 120), "done");
+  const json cy = body(c.Get(("/api/v1/trials/" + id + "/cycles").c_str()));
+  ASSERT_EQ(cy["percent"].size(), 101u) << cy.dump().substr(0, 300);
+  EXPECT_EQ(cy["percent"][100], 100);
+  for (const char* side : {"r", "l"}) {
+    EXPECT_EQ(cy["heel_strike_source"][side].get<std::string>().rfind("GRF", 0), 0u) << cy["heel_strike_source"];
+    EXPECT_GE(cy["heel_strikes_s"][side].size(), 2u);
+  }
+  std::map<std::string, json> panels;
+  for (const auto& p : cy["panels"]) panels[p["name"]] = p;
+  ASSERT_EQ(panels.size(), 3u);
+  EXPECT_EQ(panels["activations"]["series"].size(), 92u);  // the muscles; reserves and residuals left out
+  // Each stride starts and ends where IK was at its heel strikes; the mean is the strides' mean.
+  const json ik = body(c.Get(("/api/v1/trials/" + id + "/results/ik").c_str()))["tables"][0];
+  const auto& labels = ik["labels"];
+  const std::vector<double> t = ik["columns"][0];
+  auto ik_at = [&](const std::string& name, double time) {
+    const std::size_t col = static_cast<std::size_t>(std::find(labels.begin(), labels.end(), name) - labels.begin());
+    const std::vector<double> v = ik["columns"][col];
+    const std::size_t i = static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), time) - t.begin());
+    const double a = (time - t[i - 1]) / (t[i] - t[i - 1]);
+    return (1 - a) * v[i - 1] + a * v[i];
+  };
+  int checked = 0;
+  for (const auto& s : panels["kinematics"]["series"]) {
+    const std::string name = s["name"], side = s["side"];
+    const std::vector<double> hs = cy["heel_strikes_s"][side];
+    ASSERT_GE(s["strides"].size(), 1u) << name;
+    const std::vector<double> first = s["strides"][0];
+    const std::size_t k0 = static_cast<std::size_t>(std::find_if(hs.begin(), hs.end(), [&](double h) { return h >= t.front() - 1e-9; }) - hs.begin());
+    EXPECT_NEAR(first.front(), ik_at(name, hs[k0]), 1e-9) << name;
+    EXPECT_NEAR(first.back(), ik_at(name, hs[k0 + 1]), 1e-9) << name;
+    for (std::size_t k = 0; k < 101; ++k) {
+      double mean = 0;
+      for (const auto& stride : s["strides"]) mean += stride[k].get<double>();
+      EXPECT_NEAR(s["mean"][k].get<double>(), mean / static_cast<double>(s["strides"].size()), 1e-12) << name << " at " << k << " %";
+      EXPECT_GE(s["sd"][k].get<double>(), 0.0);
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 23);
+  fs::remove_all(dir);
+}
+
 TEST(ApiReference, ModelWithSeparateMarkerSet) {
   const std::string model = cpgait::refdata::gait2392("model/gait2392_simbody.osim");
   const std::string markers = cpgait::refdata::gait2392("pipeline/gait2392_Scale_MarkerSet.xml");

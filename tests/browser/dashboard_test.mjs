@@ -185,6 +185,30 @@ try {
     }
   });
 
+  await check('gait-cycle plot: every stride and the mean ± SD band, right and left, over 0-100 %', async () => {
+    if (!haveShared) return;  // the synthetic walker trial is shorter than a stride
+    const r = await page.evaluate(() => {
+      const p = window.__cpgait.plots.cycle;
+      return { x: p.data[0], labels: p.series.map((s) => s.label), at50: p.data.map((a) => a[50]), groups: p.groups,
+        quantity: document.querySelector('#cycle-quantity').value };
+    });
+    assert.equal(r.quantity, 'knee_angle');
+    assert.equal(r.x.length, 101);
+    assert.equal(r.x[0], 0);
+    assert.equal(r.x[100], 100);
+    assert.deepEqual(r.groups.map((g) => g.label), ['right', 'left']);
+    // subject01 between 0.5 and 2.5 s: one full stride of each foot between its force-plate strikes.
+    assert.deepEqual(r.groups.map((g) => g.strides), [1, 1]);
+    assert.equal(r.labels.length, 1 + r.groups.reduce((n, g) => n + g.strides + 3, 0));
+    // The bold mean is the average of the strides drawn, at 50 % of the cycle.
+    for (const g of r.groups) {
+      const strides = r.labels.map((l, i) => [l, i]).filter(([l]) => l.startsWith(`${g.label} stride`)).map(([, i]) => r.at50[i]);
+      const mean = r.at50[r.labels.indexOf(`${g.label} mean`)];
+      assert.ok(Math.abs(mean - strides.reduce((a, b) => a + b, 0) / strides.length) < 1e-9, `${g.label}: mean ${mean} vs strides ${strides}`);
+    }
+    await page.locator('#plot-cycle').screenshot({ path: path.join(ARTIFACTS, 'dashboard-gait-cycle.png') });
+  });
+
   await check('scrubbing changes the pose and moves the playhead', async () => {
     const before = await viewerPixels();
     const n = await page.evaluate(() => window.__cpgait.frames);

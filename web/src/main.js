@@ -1,7 +1,7 @@
 // cpgait dashboard: trial list with live progress, upload form, trial review.
 import './style.css';
 import { Viewer } from './viewer.js';
-import { linePlot, heatMap, COLORS } from './plots.js';
+import { linePlot, heatMap, cyclePlot, parseNormativeCsv, COLORS } from './plots.js';
 
 const app = document.getElementById('app');
 const state = { cleanups: [] };
@@ -248,6 +248,12 @@ function parseMot(text) {
   return { labels, columns: cols, inDegrees: !/inDegrees=no/.test(text) };
 }
 const column = (table, label) => table.columns[table.labels.indexOf(label)];
+// Linear interpolation of (xs, ys) at x, held at the ends.
+const interp = (xs, ys, x) => {
+  if (x <= xs[0]) return ys[0];
+  for (let i = 1; i < xs.length; ++i) if (x <= xs[i]) return ys[i - 1] + ((ys[i] - ys[i - 1]) * (x - xs[i - 1])) / (xs[i] - xs[i - 1]);
+  return ys[ys.length - 1];
+};
 
 async function trialView(id) {
   app.replaceChildren(h('p', { class: 'muted' }, 'Loading…'));
@@ -271,11 +277,11 @@ async function trialView(id) {
   const cpgFitted = done('cpg') && cpgSummary.mean_r_squared_active !== undefined;
   const gaitSummary = (trial.stages.find((x) => x.name === 'gait') || {}).summary || {};
   const gaitRan = done('gait') && gaitSummary.reference_begin_s !== undefined;
-  const [kin, ik, id_, so, cpg, gait, scale] = await Promise.all([
+  const [kin, ik, id_, so, cpg, gait, scale, cycles] = await Promise.all([
     api(`/trials/${id}/kinematics`), api(`/trials/${id}/results/ik`),
     done('id') ? api(`/trials/${id}/results/id`) : null, done('so') ? api(`/trials/${id}/results/so`) : null,
     cpgFitted ? api(`/trials/${id}/results/cpg`) : null, gaitRan ? api(`/trials/${id}/results/gait`) : null,
-    done('scale') ? api(`/trials/${id}/results/scale`) : null]);
+    done('scale') ? api(`/trials/${id}/results/scale`) : null, api(`/trials/${id}/cycles`).catch(() => null)]);
   const coords = ik.tables[0], errors = ik.tables[1];
   const time = coords.columns[0];
   const n = kin.frames.length;
@@ -339,6 +345,50 @@ async function trialView(id) {
   angleSel.addEventListener('change', drawAngles);
   refInput.addEventListener('change', async () => { const f = refInput.files[0]; if (f) { reference = parseMot(await f.text()); drawAngles(); } });
   drawAngles();
+
+  // Gait cycles: each stride from heel strike to heel strike at 0-100 %, right and left, thin; their
+  // mean bold with a ± SD band; an optional normative band from a CSV (coordinate, percent, mean, sd).
+  if (cycles && cycles.panels.some((p) => p.series.length)) {
+    window.__cpgait.cycles = cycles;
+    const panels = cycles.panels.filter((p) => p.series.length);
+    const base = (name) => name.replace(/_(r|l)(_moment|_force)?$/, '$2');
+    const panelSel = h('select', { id: 'cycle-panel' }, panels.map((p) => h('option', { value: p.name }, p.name)));
+    const quantitySel = h('select', { id: 'cycle-quantity' });
+    const normInput = h('input', { type: 'file', accept: '.csv', id: 'normative' });
+    const cycleBox = h('div', { id: 'plot-cycle' });
+    const info = h('div', { class: 'muted', id: 'cycle-info' });
+    let normative = null;
+    card('Gait cycle', h('div', { class: 'controls' }, panelSel, quantitySel, h('label', {}, 'normative band (.csv): ', normInput)), cycleBox, info);
+    const fillQuantities = () => {
+      const panel = panels.find((p) => p.name === panelSel.value);
+      const names = [...new Set(panel.series.map((s) => base(s.name)))];
+      const preferred = ['knee_angle', 'knee_angle_moment', 'soleus', 'knee'].find((n) => names.includes(n)) || names[0];
+      quantitySel.replaceChildren(...names.map((n) => h('option', { value: n, selected: n === preferred }, n)));
+    };
+    const drawCycle = () => {
+      const panel = panels.find((p) => p.name === panelSel.value);
+      const chosen = panel.series.filter((s) => base(s.name) === quantitySel.value);
+      const groups = chosen.map((s) => ({ label: s.side === 'l' && /_l(_moment|_force)?$/.test(s.name) ? 'left' : /_r(_moment|_force)?$/.test(s.name) ? 'right' : s.name,
+        color: s.side === 'l' ? '#dc2626' : '#2563eb', strides: s.strides, mean: s.mean, sd: s.sd }));
+      const unit = chosen[0] ? chosen[0].unit : '';
+      const n = normative && (normative[quantitySel.value] || normative[chosen[0] && chosen[0].name]);
+      const norm = n ? { mean: cycles.percent.map((x) => interp(n.percent, n.mean, x)), sd: cycles.percent.map((x) => interp(n.percent, n.sd, x)) } : null;
+      cycleBox.replaceChildren();
+      window.__cpgait.plots.cycle = cyclePlot(cycleBox, cycles.percent, groups, `${quantitySel.value}${unit ? ` (${unit})` : ''}`, norm);
+      window.__cpgait.plots.cycle.groups = groups.map((g) => ({ label: g.label, strides: g.strides.length }));
+      info.textContent = `heel strikes: right ${cycles.heel_strike_source.r || '–'}, left ${cycles.heel_strike_source.l || '–'}; ` +
+        groups.map((g) => `${g.label}: ${g.strides.length} stride${g.strides.length === 1 ? '' : 's'}`).join(', ');
+    };
+    panelSel.addEventListener('change', () => { fillQuantities(); drawCycle(); });
+    quantitySel.addEventListener('change', drawCycle);
+    normInput.addEventListener('change', async () => {
+      const f = normInput.files[0];
+      if (!f) return;
+      try { normative = parseNormativeCsv(await f.text()); info.classList.remove('form-error'); drawCycle(); } catch (e) { info.textContent = e.message; info.classList.add('form-error'); }
+    });
+    fillQuantities();
+    drawCycle();
+  }
 
   // Marker error per frame.
   const errBox = h('div', { id: 'plot-marker-error' });

@@ -302,21 +302,31 @@ double mean_cycle_duration(const std::vector<double>& time, const std::vector<do
   return cycles.empty() ? 0.0 : sum / static_cast<double>(cycles.size());
 }
 
-Eigen::MatrixXd cycle_average(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
-                              const std::vector<double>& starts, int samples) {
-  const auto cycles = cycles_inside(time, starts);
-  if (cycles.empty())
-    throw InputError("gait cycles", 0, "cycle_starts", "no full gait cycle (two heel strikes) lies inside the patterns' time range");
-  Eigen::MatrixXd avg = Eigen::MatrixXd::Zero(samples, patterns.cols());
-  for (const auto& [t0, t1] : cycles)
+std::vector<Eigen::MatrixXd> cycle_curves(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
+                                          const std::vector<double>& starts, int samples, bool include_end) {
+  std::vector<Eigen::MatrixXd> curves;
+  for (const auto& [t0, t1] : cycles_inside(time, starts)) {
+    Eigen::MatrixXd c(samples, patterns.cols());
     for (int k = 0; k < samples; ++k) {
-      const double t = t0 + (t1 - t0) * k / samples;
+      const double t = t0 + (t1 - t0) * k / (include_end ? samples - 1 : samples);
       const std::size_t i = std::min<std::size_t>(std::upper_bound(time.begin(), time.end(), t) - time.begin(), time.size() - 1);
       const std::size_t i0 = i == 0 ? 0 : i - 1;
       const double a = time[i] > time[i0] ? std::clamp((t - time[i0]) / (time[i] - time[i0]), 0.0, 1.0) : 0.0;
-      avg.row(k) += (1 - a) * patterns.row(static_cast<Eigen::Index>(i0)) + a * patterns.row(static_cast<Eigen::Index>(i));
+      c.row(k) = (1 - a) * patterns.row(static_cast<Eigen::Index>(i0)) + a * patterns.row(static_cast<Eigen::Index>(i));
     }
-  return avg / static_cast<double>(cycles.size());
+    curves.push_back(std::move(c));
+  }
+  return curves;
+}
+
+Eigen::MatrixXd cycle_average(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
+                              const std::vector<double>& starts, int samples) {
+  const auto curves = cycle_curves(time, patterns, starts, samples);
+  if (curves.empty())
+    throw InputError("gait cycles", 0, "cycle_starts", "no full gait cycle (two heel strikes) lies inside the patterns' time range");
+  Eigen::MatrixXd avg = Eigen::MatrixXd::Zero(samples, patterns.cols());
+  for (const auto& c : curves) avg += c;
+  return avg / static_cast<double>(curves.size());
 }
 
 CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::vector<std::string>& names, const CpgFitOptions& o) {

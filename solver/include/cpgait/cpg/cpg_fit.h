@@ -77,6 +77,12 @@ struct CpgFitResult {
 // vertical force.
 std::vector<double> contact_onsets(const Eigen::VectorXd& time_s, const Eigen::VectorXd& force_N, double threshold_N = 20.0);
 
+// Each cycle between consecutive cycle starts (heel strikes) lying inside `time`, resampled by linear
+// interpolation to `samples` phases: k / samples of the cycle, or k / (samples - 1) with include_end
+// (0 to 100 % inclusive, as gait-cycle plots show them). One samples x columns matrix per cycle.
+std::vector<Eigen::MatrixXd> cycle_curves(const std::vector<double>& time, const Eigen::MatrixXd& patterns,
+                                          const std::vector<double>& cycle_starts_s, int samples, bool include_end = false);
+
 // Averages patterns (samples x muscles at `time`) over the cycles between consecutive cycle starts
 // (heel strikes), resampled to `samples` phases. Throws InputError with fewer than two starts
 // inside the data.
