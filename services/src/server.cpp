@@ -15,6 +15,7 @@
 #include "jobs.h"
 #include "output_files.h"
 #include "pipeline.h"
+#include "report.h"
 #include "review_data.h"
 
 // Last: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
@@ -85,6 +86,8 @@ class Api {
           [&](const auto& req, auto& res) { if (auth(req, res)) results(req.matches[1], req.matches[2], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/kinematics)",
           [&](const auto& req, auto& res) { if (auth(req, res)) kinematics(req.matches[1], res); });
+    s.Get(R"(/api/v1/trials/([^/]+)/report)",
+          [&](const auto& req, auto& res) { if (auth(req, res)) report(req.matches[1], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/cycles)",
           [&](const auto& req, auto& res) { if (auth(req, res)) cycles(req.matches[1], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/files/(.+))",
@@ -525,10 +528,11 @@ class Api {
   struct ReviewInputs {
     std::string model, marker_set, markers_file, grf, loads;
   };
-  std::optional<ReviewInputs> review_inputs(const TrialRecord& t, httplib::Response& res) {
+  // Without IK, none (answered with a 409 when `res` is given).
+  std::optional<ReviewInputs> review_inputs(const TrialRecord& t, httplib::Response* res) {
     const auto ik = std::find_if(t.stages.begin(), t.stages.end(), [](const StageRecord& s) { return s.name == "ik"; });
     if (ik == t.stages.end() || ik->state != "done") {
-      send_error(res, 409, "not_ready", "inverse kinematics is not done yet", "stage");
+      if (res) send_error(*res, 409, "not_ready", "inverse kinematics is not done yet", "stage");
       return std::nullopt;
     }
     const fs::path dir = jobs_.trial_dir(t.id), inputs = dir / "inputs";
@@ -553,7 +557,7 @@ class Api {
   void kinematics(const std::string& id, httplib::Response& res) {
     auto t = find(id, res);
     if (!t) return;
-    const auto in = review_inputs(*t, res);
+    const auto in = review_inputs(*t, &res);
     if (!in) return;
     try {
       send_json(res, 200,
@@ -567,13 +571,28 @@ class Api {
   void cycles(const std::string& id, httplib::Response& res) {
     auto t = find(id, res);
     if (!t) return;
-    const auto in = review_inputs(*t, res);
+    const auto in = review_inputs(*t, &res);
     if (!in) return;
     try {
       send_json(res, 200, trial_cycles_json(in->model, in->marker_set, result_dir(*t).string(), t->name, in->grf, in->loads));
     } catch (const std::exception& e) {
       send_error(res, 409, "not_ready", std::string("gait cycles not available: ") + e.what());
     }
+  }
+
+  // The self-contained HTML report: summary, stages, warnings, gait-cycle plots (when IK is done and
+  // the trial holds a stride).
+  void report(const std::string& id, httplib::Response& res) {
+    auto t = find(id, res);
+    if (!t) return;
+    json cycles = nullptr;
+    if (const auto in = review_inputs(*t, nullptr)) try {
+        cycles = trial_cycles_json(in->model, in->marker_set, result_dir(*t).string(), t->name, in->grf, in->loads);
+      } catch (const std::exception&) {  // no full stride: the report goes without cycle plots
+      }
+    const auto model = store_.model(t->options.value("model", ""));
+    res.set_header("Content-Disposition", "attachment; filename=\"" + t->name + "_report.html\"");
+    res.set_content(trial_report_html(*t, model ? &*model : nullptr, cycles), "text/html; charset=utf-8");
   }
 
   void file(const std::string& id, const std::string& name, httplib::Response& res) {

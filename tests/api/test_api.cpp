@@ -241,6 +241,24 @@ TEST(ApiReference, GaitCyclesCutEachStrideAtItsHeelStrikes) {
     ++checked;
   }
   EXPECT_EQ(checked, 23);
+
+  // The report (acceptance 3): one self-contained page with the cycle plots as images.
+  auto report = c.Get(("/api/v1/trials/" + id + "/report").c_str());
+  ASSERT_EQ(report->status, 200);
+  EXPECT_EQ(report->get_header_value("Content-Type").rfind("text/html", 0), 0u);
+  EXPECT_NE(report->get_header_value("Content-Disposition").find("subject01_walk1_report.html"), std::string::npos);
+  const std::string& html = report->body;
+  EXPECT_LT(html.size(), 2u << 20);
+  for (const char* external : {"<script", "<link", "src=\"http", "href=\"http", "url("}) EXPECT_EQ(html.find(external), std::string::npos) << external;
+  std::size_t images = 0;
+  for (std::size_t p = 0; (p = html.find("<img ", p)) != std::string::npos; ++p) {
+    ++images;
+    const std::string inline_svg = "src=\"data:image/svg+xml;base64,PHN2Zy";  // "<svg" in base64
+    EXPECT_EQ(html.compare(html.find("src=", p), inline_svg.size(), inline_svg), 0) << "an image that is not an inline SVG";
+  }
+  // hip, knee and ankle angles, pelvis tilt, hip adduction, subtalar; three moments; seven muscles.
+  EXPECT_EQ(images, 16u);
+  EXPECT_NE(html.find("knee_angle_r"), std::string::npos);
   fs::remove_all(dir);
 }
 

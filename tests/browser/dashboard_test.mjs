@@ -5,7 +5,7 @@
 import assert from 'node:assert/strict';
 import { spawn, execFileSync } from 'node:child_process';
 import { createRequire } from 'node:module';
-import { existsSync, mkdirSync, mkdtempSync, rmSync } from 'node:fs';
+import { existsSync, mkdirSync, mkdtempSync, rmSync, statSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 
@@ -207,6 +207,26 @@ try {
       assert.ok(Math.abs(mean - strides.reduce((a, b) => a + b, 0) / strides.length) < 1e-9, `${g.label}: mean ${mean} vs strides ${strides}`);
     }
     await page.locator('#plot-cycle').screenshot({ path: path.join(ARTIFACTS, 'dashboard-gait-cycle.png') });
+  });
+
+  await check('the report downloads, opens offline with its plots as images, and is under 2 MB', async () => {
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click('#report')]);
+    const file = path.join(ARTIFACTS, 'report.html');
+    await download.saveAs(file);
+    const size = statSync(file).size;
+    assert.ok(size < 2 * 1024 * 1024, `${size} bytes`);
+    const offline = await browser.newContext({ offline: true });
+    const rp = await offline.newPage({ viewport: { width: 1100, height: 900 } });
+    const fetched = [];
+    rp.on('request', (r) => { if (!/^(data|file):/.test(r.url())) fetched.push(r.url()); });
+    await rp.goto(`file://${file}`);
+    const images = await rp.evaluate(() => [...document.images].map((i) => i.complete && i.naturalWidth > 0));
+    assert.deepEqual(fetched, []);
+    assert.ok(images.every(Boolean), 'an image did not load');
+    if (haveShared) assert.equal(images.length, 16);
+    assert.match(await rp.locator('h1').textContent(), haveShared ? /subject01_walk1/ : /./);
+    await rp.screenshot({ path: path.join(ARTIFACTS, 'report.png'), fullPage: true });
+    await offline.close();
   });
 
   await check('scrubbing changes the pose and moves the playhead', async () => {

@@ -272,6 +272,17 @@ async function trialView(id) {
     return;
   }
   if (trial.status !== 'done') return;
+  // The self-contained report (summary, stages, warnings, gait-cycle plots), saved as a file.
+  const reportBtn = h('button', { id: 'report' }, 'Download report');
+  reportBtn.addEventListener('click', async () => {
+    const res = await fetch(`/api/v1/trials/${id}/report`, { headers: token() ? { Authorization: `Bearer ${token()}` } : {} });
+    if (!res.ok) return;
+    const a = h('a', { href: URL.createObjectURL(await res.blob()), download: `${trial.name}_report.html` });
+    document.body.append(a);
+    a.click();
+    a.remove();
+  });
+  head.querySelector('h1').append(' ', reportBtn);
   const done = (s) => (trial.stages.find((x) => x.name === s) || {}).state === 'done';
   const cpgSummary = (trial.stages.find((x) => x.name === 'cpg') || {}).summary || {};
   const cpgFitted = done('cpg') && cpgSummary.mean_r_squared_active !== undefined;
