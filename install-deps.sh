@@ -6,7 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config
   libeigen3-dev libceres-dev libopencv-dev libapriltag-dev
-  libcpp-httplib-dev nlohmann-json3-dev libpugixml-dev libsqlite3-dev libpq-dev
+  libcpp-httplib-dev nlohmann-json3-dev libpugixml-dev libsqlite3-dev libpq-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   postgresql  # the scale-out tests start their own server (initdb into a temporary folder)
   chromium  # the dashboard's browser tests (driven by playwright-core from npm)

@@ -26,6 +26,8 @@ void add_serve_command(CLI::App& app) {
   s->add_option("--max-upload-mb", *max_mb, "largest accepted request body, MB")->check(CLI::PositiveNumber)->capture_default_str();
   s->add_option("--read-timeout", o->read_timeout_s, "seconds to wait for a slow upload")->capture_default_str();
   s->add_option("--web", o->web_dir, "built dashboard folder (default: web/dist when present)");
+  s->add_option("--geometry", o->geometry_dirs, "folder of mesh files (.vtp, .stl, .obj) the models name, searched after a model's own "
+                                                "uploaded geometry (repeatable)");
   s->callback([o, max_mb] {
     if (o->heartbeat_s * 2 >= o->lease_s) throw CLI::ValidationError("--heartbeat", "must be under half of --lease");
     o->max_upload_bytes = static_cast<std::size_t>(*max_mb * 1024 * 1024);

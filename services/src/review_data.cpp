@@ -16,6 +16,7 @@
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
+#include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait::services {
 using nlohmann::json;
@@ -35,10 +36,19 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
   if (!grf_mot.empty()) loads = std::make_unique<AppliedLoads>(model, parse_external_loads(loads_xml, "loads.xml"), parse_storage(grf_mot, "grf.mot"));
 
   json bodies = json::array();
-  for (std::size_t b = 1; b < model.bodies.size(); ++b)
+  for (std::size_t b = 1; b < model.bodies.size(); ++b) {
+    json meshes = json::array();
+    for (const BodyMesh& mesh : model.bodies[b].meshes) {
+      const Eigen::Quaterniond quat(mesh.pose.rotation);
+      meshes.push_back({{"file", mesh.file}, {"scale", {mesh.scale.x(), mesh.scale.y(), mesh.scale.z()}},
+                        {"translation", {mesh.pose.translation_m.x(), mesh.pose.translation_m.y(), mesh.pose.translation_m.z()}},
+                        {"rotation", {quat.x(), quat.y(), quat.z(), quat.w()}}});
+    }
     bodies.push_back({{"name", model.bodies[b].name},
                       {"parent", model.bodies[model.joints[model.bodies[b].joint].parent_body].name},
-                      {"mass_kg", model.bodies[b].mass_kg}});
+                      {"mass_kg", model.bodies[b].mass_kg},
+                      {"meshes", meshes}});
+  }
   json model_markers = json::array(), measured_names = json::array();
   for (const auto& m : model.markers) model_markers.push_back(m.name);
   for (const auto& n : trial.marker_names) measured_names.push_back(n);
@@ -48,6 +58,9 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
   const bool degrees = ik.in_degrees.value_or(true);
   KinematicsWorkspace<double> ws(model);
   std::vector<AppliedLoads::Sample> samples;
+  std::vector<PathVertex<double>> path;
+  json muscle_names = json::array();
+  for (const auto& m : model.muscles) muscle_names.push_back(m.name);
   json frames = json::array();
   int trial_frame = 0;
   for (int r = 0; r < ik.num_rows(); ++r) {
@@ -82,13 +95,23 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
                           {"point", {round6(s.point_m.x()), round6(s.point_m.y()), round6(s.point_m.z())}},
                           {"force", {round6(s.force_N.x()), round6(s.force_N.y()), round6(s.force_N.z())}}});
     }
-    frames.push_back({{"time", t}, {"bodies", poses}, {"com", coms}, {"model_markers", mm}, {"measured_markers", measured}, {"grf", forces}});
+    // Each muscle's path in ground: its points, wrap tangent points included (flattened x y z).
+    json muscle_paths = json::array();
+    for (const auto& muscle : model.muscles) {
+      current_path(model, muscle, q.data(), ws, path);
+      std::vector<double> points;
+      for (const auto& v : path) points.insert(points.end(), {round6(v.x_ground.x()), round6(v.x_ground.y()), round6(v.x_ground.z())});
+      muscle_paths.push_back(points);
+    }
+    frames.push_back({{"time", t}, {"bodies", poses}, {"com", coms}, {"model_markers", mm}, {"measured_markers", measured}, {"grf", forces},
+                      {"muscles", muscle_paths}});
   }
   return {{"units", {{"length", "m"}, {"force", "N"}, {"time", "s"}}},
           {"up", {model.gravity_m_s2.x() == 0 && model.gravity_m_s2.z() == 0 ? "y" : "custom"}},
           {"bodies", bodies},
           {"model_marker_names", model_markers},
           {"measured_marker_names", measured_names},
+          {"muscle_names", muscle_names},
           {"frames", frames}};
 }
 

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +16,7 @@
 #include "jobs.h"
 #include "output_files.h"
 #include "pipeline.h"
+#include "mesh_files.h"
 #include "report.h"
 #include "review_data.h"
 
@@ -75,6 +77,8 @@ class Api {
     s.Get("/api/v1/options/schema", [&](const auto& req, auto& res) { if (auth(req, res)) send_json(res, 200, pipeline_options_schema()); });
     s.Get("/api/v1/stages", [&](const auto& req, auto& res) { if (auth(req, res)) send_json(res, 200, {{"stages", pipeline_stages_json()}}); });
     s.Get("/api/v1/models", [&](const auto& req, auto& res) { if (auth(req, res)) list_models(res); });
+    s.Get(R"(/api/v1/models/([^/]+)/meshes/([^/]+))",
+          [&](const auto& req, auto& res) { if (auth(req, res)) mesh(req.matches[1], req.matches[2], res); });
     s.Post("/api/v1/models", [&](const auto& req, auto& res) { if (auth(req, res)) upload_model(req, res); });
     s.Post("/api/v1/trials", [&](const auto& req, auto& res) { if (auth(req, res)) upload_trial(req, res); });
     s.Get("/api/v1/trials", [&](const auto& req, auto& res) { if (auth(req, res)) list_trials(req, res); });
@@ -160,6 +164,28 @@ class Api {
     send_json(res, 200, {{"models", out}});
   }
 
+  // A mesh file a model names, as triangles (positions in m, three indices per triangle): from the
+  // model's uploaded geometry, else the --geometry folders.
+  void mesh(const std::string& model_id, const std::string& file, httplib::Response& res) {
+    if (!store_.model(model_id)) return send_error(res, 404, "not_found", "no model with id '" + model_id + "'", "model");
+    if (!is_safe_file_name(file)) return send_error(res, 400, "bad_file_name", "unsafe file name '" + file + "'", "file");
+    std::vector<fs::path> places = {fs::path(o_.data_dir) / "models" / model_id / "Geometry" / file};
+    for (const auto& d : o_.geometry_dirs) places.push_back(fs::path(d) / file);
+    for (const auto& p : places) {
+      if (!fs::is_regular_file(p)) continue;
+      try {
+        const TriangleMesh m = read_mesh_file(p.string());
+        std::vector<double> positions(m.positions.size());
+        for (std::size_t i = 0; i < positions.size(); ++i) positions[i] = std::round(m.positions[i] * 1e6) / 1e6;
+        res.set_header("Cache-Control", "max-age=3600");
+        return send_json(res, 200, {{"file", file}, {"positions", positions}, {"triangles", m.triangles}});
+      } catch (const InputError& e) {
+        return send_error(res, 422, "invalid_input", e.what(), e.field(), e.line());
+      }
+    }
+    send_error(res, 404, "not_found", "mesh '" + file + "' is in neither the model's geometry nor a --geometry folder", "file");
+  }
+
   void upload_model(const httplib::Request& req, httplib::Response& res) {
     if (!req.is_multipart_form_data() || !req.has_file("model"))
       return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'model' part (the .osim)", "model");
@@ -179,6 +205,16 @@ class Api {
         write_text_atomic((tmp / "markerset.xml").string(), req.get_file_value("markerset").content);
         ro.marker_set_file = (tmp / "markerset.xml").string();
       }
+      // Mesh files for the 3-D view, as `geometry` parts: kept in the model's Geometry folder, each checked.
+      const auto meshes = req.files.equal_range("geometry");
+      for (auto it = meshes.first; it != meshes.second; ++it) {
+        part_name = "geometry";
+        const std::string mesh_name = it->second.filename;
+        if (!is_safe_file_name(mesh_name)) throw InputError(mesh_name, 0, "geometry", "unsafe or missing mesh file name");
+        parse_mesh(it->second.content, mesh_name);
+        ensure_directory((tmp / "Geometry").string());
+        write_text_atomic((tmp / "Geometry" / mesh_name).string(), it->second.content);
+      }
       part_name = "model";
       const OsimReadResult r = parse_osim(part.content, name, ro);
       const ModelRecord m{id, name, now_iso8601(), r.warnings,
@@ -191,7 +227,7 @@ class Api {
     } catch (const InputError& e) {
       std::error_code ec;
       fs::remove_all(tmp, ec);
-      send_input_error(res, e, e.file().find("markerset") != std::string::npos ? "markerset" : part_name);
+      send_input_error(res, e, part_name == "geometry" ? part_name : e.file().find("markerset") != std::string::npos ? "markerset" : part_name);
     }
   }
 

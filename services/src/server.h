@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace cpgait::services {
 
@@ -18,6 +19,7 @@ struct ServerOptions {
   std::size_t max_upload_bytes = std::size_t{256} << 20;
   int read_timeout_s = 60;
   std::string web_dir;  // built dashboard (web/dist); a placeholder page when absent
+  std::vector<std::string> geometry_dirs;  // folders searched for models' mesh files after the model's own Geometry
 };
 
 // Runs until SIGINT/SIGTERM. Prints "listening on http://host:port" once bound.

@@ -262,6 +262,57 @@ TEST(ApiReference, GaitCyclesCutEachStrideAtItsHeelStrikes) {
   fs::remove_all(dir);
 }
 
+// Bones for the 3-D view (issue 26): mesh files uploaded with a model (or in a --geometry folder)
+// are served as triangles; the trial's kinematics say which body carries which, scaled.
+TEST(ApiReference, ModelMeshesAreUploadedCheckedAndServed) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  const std::string geometry = cpgait::refdata::shared_path("opensim/Geometry");
+  REQUIRE_REFERENCE(pl + "OutputReference/subject01_simbody.osim");
+  REQUIRE_REFERENCE(geometry + "/femur_r.vtp");
+  const std::string dir = cpgait::refdata::temp_dir("api_meshes");
+  ServerProcess server(dir + "/data", {"--geometry", geometry});
+  httplib::Client c("127.0.0.1", server.port());
+  const std::string osim = slurp(pl + "OutputReference/subject01_simbody.osim");
+  // A broken mesh part is refused, naming the part and the file; nothing is stored.
+  auto bad = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", osim, "subject01_simbody.osim", ""},
+                                                                      {"geometry", "v 0 0 0\nf 1 2 3\n", "broken.obj", ""}});
+  ASSERT_EQ(bad->status, 422) << bad->body;
+  EXPECT_EQ(body(bad)["error"]["part"], "geometry");
+  EXPECT_NE(body(bad)["error"]["message"].get<std::string>().find("broken.obj"), std::string::npos);
+  EXPECT_EQ(body(c.Get("/api/v1/models"))["models"].size(), 1u);  // the built-in walker only
+  // An uploaded femur (a made one, to tell it from the --geometry folder's) wins over the folder's.
+  const std::string own_femur = "v 0 0 0\nv 0 -0.5 0\nv 0.05 -0.5 0\nf 1 2 3\n";
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", osim, "subject01_simbody.osim", ""},
+                                                                    {"geometry", own_femur, "femur_r.vtp.obj", ""}});
+  ASSERT_EQ(m->status, 201) << m->body;
+  const std::string model = body(m)["id"];
+  const json own = body(c.Get(("/api/v1/models/" + model + "/meshes/femur_r.vtp.obj").c_str()));
+  EXPECT_EQ(own["triangles"].size(), 3u);
+  const json femur = body(c.Get(("/api/v1/models/" + model + "/meshes/femur_r.vtp").c_str()));
+  EXPECT_EQ(femur["positions"].size(), 3u * 456);
+  EXPECT_EQ(femur["triangles"].size(), 3u * 908);
+  EXPECT_EQ(c.Get(("/api/v1/models/" + model + "/meshes/nothing.vtp").c_str())->status, 404);
+  const auto escape = c.Get(("/api/v1/models/" + model + "/meshes/..%2Fmodel.osim").c_str());
+  EXPECT_TRUE(escape->status == 400 || escape->status == 404) << escape->status;  // never the model file
+  EXPECT_EQ(escape->body.find("OpenSimDocument"), std::string::npos);
+  // A trial's kinematics name each body's meshes with their scale.
+  auto t = c.Post("/api/v1/trials", trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", {{"model", model}, {"stages", {"ik"}}}));
+  const std::string id = body(t)["id"];
+  ASSERT_EQ(wait_finished(c, id, 60), "done");
+  const json kin = body(c.Get(("/api/v1/trials/" + id + "/kinematics").c_str()));
+  int meshes = 0;
+  for (const auto& b : kin["bodies"]) {
+    meshes += static_cast<int>(b["meshes"].size());
+    if (b["name"] == "femur_r") {
+      EXPECT_NEAR(b["meshes"][0]["scale"][0].get<double>(), 1.14724, 1e-9);
+    }
+  }
+  EXPECT_EQ(meshes, 19);
+  EXPECT_EQ(kin["muscle_names"].size(), 92u);
+  EXPECT_GE(kin["frames"][0]["muscles"][0].size(), 6u);  // two points or more, x y z each
+  fs::remove_all(dir);
+}
+
 TEST(ApiReference, ModelWithSeparateMarkerSet) {
   const std::string model = cpgait::refdata::gait2392("model/gait2392_simbody.osim");
   const std::string markers = cpgait::refdata::gait2392("pipeline/gait2392_Scale_MarkerSet.xml");

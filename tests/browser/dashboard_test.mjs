@@ -25,7 +25,10 @@ const haveShared = existsSync(path.join(pipeline, 'subject01_walk1.trc'));
 let passed = 0, failed = 0;
 
 // The server.
-const server = spawn(CPGAIT_BINARY, ['serve', '--port', '0', '--data', path.join(work, 'data')], { stdio: ['ignore', 'pipe', 'pipe'] });
+// gait2392's bone meshes (../shared) for the 3-D view, as a lab's Geometry folder.
+const geometry = path.join(CPGAIT_SHARED_DIR, 'reference/opensim/Geometry');
+const server = spawn(CPGAIT_BINARY, ['serve', '--port', '0', '--data', path.join(work, 'data'), ...(existsSync(geometry) ? ['--geometry', geometry] : [])],
+  { stdio: ['ignore', 'pipe', 'pipe'] });
 const port = await new Promise((resolve, reject) => {
   let out = '';
   server.stdout.on('data', (d) => { out += d; const m = out.match(/listening on http:\/\/127\.0\.0\.1:(\d+)/); if (m) resolve(Number(m[1])); });
@@ -158,6 +161,51 @@ try {
     const { lit } = await viewerPixels();
     assert.ok(lit > 500, `only ${lit} lit pixels`);
     await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-trial.png'), fullPage: true });
+  });
+
+  await check('bones: the model\'s meshes in side view, whole body in frame, and far more figure than the stick figure', async () => {
+    if (!haveShared) return;  // the walker has no meshes
+    const state = await page.evaluate(() => ({ meshes: window.__cpgait.viewer.meshCount, view: window.__cpgait.viewer.view,
+      mode: window.__cpgait.viewer.boneMode, bounds: window.__cpgait.viewer.figureScreenBounds() }));
+    assert.equal(state.meshes, 19);  // every body's meshes of subject01 (the treadmill is on the ground)
+    assert.equal(state.view, 'side');
+    assert.equal(state.mode, 'meshes');
+    // Head and feet inside the canvas.
+    for (const v of [...state.bounds.min, ...state.bounds.max]) assert.ok(Math.abs(v) < 1, `figure leaves the canvas: ${JSON.stringify(state.bounds)}`);
+    await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-bones.png') });
+    // Silhouette areas with only the figure drawn: meshes against lines.
+    // The figure: bones and muscles; the stick figure: lines and joints, as the dashboard drew it before.
+    const figureOnly = (mode) => page.evaluate((m) => {
+      const v = window.__cpgait.viewer;
+      [...v.modelMarkers, ...v.measuredMarkers, ...v.coms, ...v.arrows, ...v.scene.children.filter((o) => o.type === 'GridHelper')]
+        .forEach((o) => { o.visible = false; });
+      v.muscles.visible = m === 'meshes';
+      v.setBoneMode(m);
+    }, mode);
+    await figureOnly('meshes');
+    const meshes = (await viewerPixels()).lit;
+    await figureOnly('lines');
+    const lines = (await viewerPixels()).lit;
+    await page.evaluate(() => {
+      const v = window.__cpgait.viewer;
+      [...v.modelMarkers, ...v.coms, ...v.scene.children.filter((o) => o.type === 'GridHelper')].forEach((o) => { o.visible = true; });
+      v.setBoneMode('meshes');
+      v.show(window.__cpgait.frame);
+    });
+    console.log(`# figure pixels in side view: bones and muscles ${meshes}, stick figure ${lines} (${(meshes / lines).toFixed(1)}x)`);
+    // Muscles change colour with their activation between two frames.
+    const colours = (f) => page.evaluate((frame) => {
+      const v = window.__cpgait.viewer;
+      v.show(frame);
+      return { n: v.muscles.count, c: Array.from(v.muscles.instanceColor.array.slice(0, 3 * v.muscles.count)) };
+    }, f);
+    const a = await colours(10), b = await colours(60);
+    assert.ok(a.n > 92, `${a.n} muscle segments`);
+    let changed = 0;
+    for (let i = 0; i < Math.min(a.c.length, b.c.length); i += 3) changed += Math.abs(a.c[i] - b.c[i]) > 0.05;
+    assert.ok(changed > 20, `only ${changed} muscle segments changed colour between frames 10 and 60`);
+    await page.evaluate(() => window.__cpgait.viewer.show(window.__cpgait.frame));
+    assert.ok(meshes >= 5 * lines, `meshes ${meshes} vs lines ${lines}`);
   });
 
   await check('plots hold the right number of series', async () => {

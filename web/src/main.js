@@ -310,6 +310,29 @@ async function trialView(id) {
   app.append(h('div', { class: 'card' }, viewerBox, h('div', { class: 'controls' }, play, slider, speedSel, clock), legend,
     h('div', { class: 'muted' }, 'Keys: space plays/pauses, ←/→ step one frame.')));
   const viewer = new Viewer(viewerBox, kin);
+  window.__cpgait.viewer = viewer;
+  // The model's bones, where its mesh files were uploaded with it or sit in a --geometry folder.
+  const modelId = trial.options.model;
+  if (modelId && kin.bodies.some((b) => (b.meshes || []).length))
+    await viewer.loadMeshes((file) => api(`/models/${modelId}/meshes/${encodeURIComponent(file)}`).catch(() => null));
+  const viewButtons = ['side', 'front', 'top'].map((v) => {
+    const b = h('button', { id: `view-${v}`, type: 'button' }, v[0].toUpperCase() + v.slice(1));
+    b.addEventListener('click', () => viewer.setView(v));
+    return b;
+  });
+  const linesBox = h('input', { type: 'checkbox', id: 'bones-lines', checked: viewer.boneMode === 'lines', disabled: !viewer.meshCount });
+  linesBox.addEventListener('change', () => viewer.setBoneMode(linesBox.checked ? 'lines' : 'meshes'));
+  const musclesBox = h('input', { type: 'checkbox', id: 'show-muscles', checked: true });
+  musclesBox.addEventListener('change', () => viewer.setMusclesVisible(musclesBox.checked));
+  viewerBox.parentElement.querySelector('.controls').append(...viewButtons, h('label', {}, linesBox, ' bones as lines'),
+    h('label', {}, musclesBox, ' muscles'));
+  // Muscles coloured by static optimization's activations (the SO row nearest the frame's time).
+  if (so && kin.muscle_names) {
+    const act = so.tables[0], actTime = act.columns[0];
+    const columns = kin.muscle_names.map((m) => column(act, m) || null);
+    const rowOf = kin.frames.map((f) => { let best = 0; actTime.forEach((t, r) => { if (Math.abs(t - f.time) < Math.abs(actTime[best] - f.time)) best = r; }); return best; });
+    viewer.setActivation((frameIndex, i) => (columns[i] ? columns[i][rowOf[frameIndex]] : 0));
+  }
 
   // Plots.
   const plotsBox = h('div', { class: 'grid2' });

@@ -1,5 +1,6 @@
-// 3-D playback: bones between body origins, centres of mass, model and measured markers, the
-// ground and the ground reaction forces. Geometry-free on purpose: it shows what the model did.
+// 3-D playback: the model's bone meshes (when its geometry is found; else bones as lines between
+// body origins), centres of mass, model and measured markers, the ground and the ground reaction
+// forces. The camera starts at the subject's right side, framing the whole body, and follows the pelvis.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 
@@ -14,9 +15,7 @@ export class Viewer {
     this.scene = new THREE.Scene();
     this.scene.background = new THREE.Color(0x0f172a);
     this.camera = new THREE.PerspectiveCamera(40, 1, 0.01, 100);
-    this.camera.position.set(0.9, 1.25, 2.3);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
-    this.controls.target.set(0, 0.9, 0);
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x334155, 1.2));
     const grid = new THREE.GridHelper(20, 40, 0x475569, 0x1e293b);
     this.scene.add(grid);
@@ -34,6 +33,26 @@ export class Viewer {
     this.bones.geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(kin.bodies.length * 6), 3));
     this.scene.add(this.bones);
     this.arrows = [];
+    // Bone meshes: one group per body, posed each frame; filled by loadMeshes.
+    this.boneGroups = kin.bodies.map(() => { const g = new THREE.Group(); this.scene.add(g); return g; });
+    this.meshCount = 0;
+    this.boneMode = 'lines';
+    // Muscles: every path segment a thin cylinder (one instanced mesh), coloured by activation.
+    const segments = Math.max(1, ...kin.frames.map((f) => (f.muscles || []).reduce((n, p) => n + Math.max(0, p.length / 3 - 1), 0)));
+    const tube = new THREE.CylinderGeometry(1, 1, 1, 6, 1, true).translate(0, 0.5, 0);
+    this.muscles = new THREE.InstancedMesh(tube, new THREE.MeshLambertMaterial({ color: 0xffffff }), segments);
+    this.muscles.instanceMatrix.setUsage(THREE.DynamicDrawUsage);
+    this.muscles.count = 0;
+    this.muscles.frustumCulled = false;
+    this.scene.add(this.muscles);
+    this.activation = null;  // (frameIndex, muscleIndex) -> 0..1, or null: set by setActivation
+    // Progression: where the pelvis went over the trial (+x when it stayed in place).
+    const first = kin.frames[0].bodies[0], last = kin.frames[kin.frames.length - 1].bodies[0];
+    this.forward = new THREE.Vector3(last[0] - first[0], 0, last[2] - first[2]);
+    if (this.forward.length() < 0.2) this.forward.set(1, 0, 0);
+    this.forward.normalize();
+    // The subject's height at the first frame (highest body origin plus a head) sets the framing.
+    this.height = Math.max(1.0, ...kin.frames[0].bodies.map((b) => b[1])) + 0.3;
     this.resize = () => {
       const w = container.clientWidth, h = container.clientHeight;
       this.renderer.setSize(w, h, false);
@@ -43,7 +62,116 @@ export class Viewer {
     };
     new ResizeObserver(this.resize).observe(container);
     this.controls.addEventListener('change', () => this.render());
+    this.setView('side');
     this.resize();
+  }
+
+  // side (from the subject's right), front or top, at a distance that frames the whole body.
+  setView(kind) {
+    const f = this.kin.frames[0].bodies[0];
+    // The figure as drawn now (its meshes, else its joints up to a head above the highest one).
+    const box = new THREE.Box3();
+    if (this.boneMode === 'meshes') this.boneGroups.forEach((g) => box.expandByObject(g));
+    if (box.isEmpty()) {
+      this.kin.frames[0].bodies.forEach((b) => box.expandByPoint(new THREE.Vector3(b[0], b[1], b[2])));
+      box.expandByPoint(new THREE.Vector3(f[0], this.height, f[2])).expandByPoint(new THREE.Vector3(f[0], 0, f[2]));
+    }
+    const height = Math.max(1.0, box.max.y - Math.min(0, box.min.y));
+    const target = new THREE.Vector3(f[0], (box.max.y + Math.min(0, box.min.y)) / 2, f[2]);
+    const distance = (0.62 * height) / Math.tan((this.camera.fov * Math.PI) / 360);
+    const right = new THREE.Vector3().crossVectors(this.forward, new THREE.Vector3(0, 1, 0)).normalize();
+    const dir = kind === 'front' ? this.forward.clone() : kind === 'top' ? new THREE.Vector3(0, 1, 0).addScaledVector(this.forward, -0.001) : right;
+    this.controls.target.copy(target);
+    this.camera.position.copy(target).addScaledVector(dir.normalize(), distance);
+    this.controls.update();
+    this.view = kind;
+    this.render();
+  }
+
+  // Fetches each body's meshes (fetchMesh(file) -> {positions, triangles} or null) and shows them
+  // instead of the lines; returns how many were drawn.
+  async loadMeshes(fetchMesh) {
+    const material = new THREE.MeshLambertMaterial({ color: 0xe8e1cf });
+    const cache = new Map();
+    await Promise.all(this.kin.bodies.map(async (b, i) => {
+      for (const m of b.meshes || []) {
+        if (!cache.has(m.file)) cache.set(m.file, fetchMesh(m.file));
+        const data = await cache.get(m.file);
+        if (!data) continue;
+        const geometry = new THREE.BufferGeometry();
+        geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(data.positions), 3));
+        geometry.setIndex(data.triangles);
+        geometry.computeVertexNormals();
+        const mesh = new THREE.Mesh(geometry, material);
+        mesh.scale.set(...m.scale);
+        mesh.position.set(...m.translation);
+        mesh.quaternion.set(...m.rotation);
+        this.boneGroups[i].add(mesh);
+        this.meshCount++;
+      }
+    }));
+    this.setBoneMode(this.meshCount ? 'meshes' : 'lines');
+    this.show(0);
+    this.setView(this.view);
+    return this.meshCount;
+  }
+
+  // Muscle colours follow activation(frameIndex, muscleIndex) in 0..1 (grey-blue at rest, red at 1).
+  setActivation(activation) {
+    this.activation = activation;
+    if (this.frameIndex != null) this.show(this.frameIndex);
+  }
+
+  setMusclesVisible(visible) {
+    this.muscles.visible = visible;
+    this.render();
+  }
+
+  showMuscles(f, frameIndex) {
+    const up = new THREE.Vector3(0, 1, 0), a = new THREE.Vector3(), d = new THREE.Vector3(), q = new THREE.Quaternion();
+    const scale = new THREE.Vector3(), m = new THREE.Matrix4(), rest = new THREE.Color(0x64748b), full = new THREE.Color(0xef4444), c = new THREE.Color();
+    let k = 0;
+    (f.muscles || []).forEach((pts, i) => {
+      const act = this.activation ? Math.max(0, Math.min(1, this.activation(frameIndex, i) || 0)) : 0.15;
+      c.copy(rest).lerp(full, act);
+      for (let j = 0; j + 5 < pts.length; j += 3) {
+        a.set(pts[j], pts[j + 1], pts[j + 2]);
+        d.set(pts[j + 3] - pts[j], pts[j + 4] - pts[j + 1], pts[j + 5] - pts[j + 2]);
+        const length = d.length();
+        if (length < 1e-6) continue;
+        q.setFromUnitVectors(up, d.multiplyScalar(1 / length));
+        m.compose(a, q, scale.set(0.005, length, 0.005));
+        this.muscles.setMatrixAt(k, m);
+        this.muscles.setColorAt(k, c);
+        k++;
+      }
+    });
+    this.muscles.count = k;
+    this.muscles.instanceMatrix.needsUpdate = true;
+    if (this.muscles.instanceColor) this.muscles.instanceColor.needsUpdate = true;
+  }
+
+  // 'meshes': the bone meshes; 'lines': the stick figure (joints and bones between body origins).
+  setBoneMode(mode) {
+    this.boneMode = mode === 'meshes' && this.meshCount ? 'meshes' : 'lines';
+    const meshes = this.boneMode === 'meshes';
+    this.boneGroups.forEach((g) => { g.visible = meshes; });
+    this.bones.visible = !meshes;
+    this.joints.forEach((j) => { j.visible = !meshes; });
+    this.render();
+  }
+
+  // The drawn figure's extent on screen (normalised device coordinates, -1..1 inside the canvas).
+  figureScreenBounds() {
+    const box = new THREE.Box3();
+    if (this.boneMode === 'meshes') this.boneGroups.forEach((g) => box.expandByObject(g));
+    else this.joints.forEach((j) => box.expandByPoint(j.position));
+    const min = [Infinity, Infinity], max = [-Infinity, -Infinity];
+    for (const x of [box.min.x, box.max.x]) for (const y of [box.min.y, box.max.y]) for (const z of [box.min.z, box.max.z]) {
+      const p = new THREE.Vector3(x, y, z).project(this.camera);
+      min[0] = Math.min(min[0], p.x); min[1] = Math.min(min[1], p.y); max[0] = Math.max(max[0], p.x); max[1] = Math.max(max[1], p.y);
+    }
+    return { min, max };
   }
 
   add(mesh, radius) {
@@ -55,9 +183,13 @@ export class Viewer {
   show(frameIndex) {
     const f = this.kin.frames[frameIndex];
     if (!f) return;
+    this.frameIndex = frameIndex;
+    this.showMuscles(f, frameIndex);
     const pos = this.bones.geometry.attributes.position;
     f.bodies.forEach((p, i) => {
       this.joints[i].position.set(p[0], p[1], p[2]);
+      this.boneGroups[i].position.set(p[0], p[1], p[2]);
+      this.boneGroups[i].quaternion.set(p[3], p[4], p[5], p[6]);
       this.coms[i].position.set(...f.com[i]);
       // A bone from the parent's origin to this body's; a leaf body also points through its COM.
       const parent = this.parentIndex[i] >= 0 ? f.bodies[this.parentIndex[i]] : p;

@@ -106,6 +106,7 @@ class Reader {
       b.inertia_kg_m2 << xx, xy, xz, xy, yy, yz, xz, yz, zz;
     }
     if (m_.body_index(name) >= 0) d_.fail(n, "body name '" + name + "' is used twice");
+    read_meshes(n, Pose{}, b.meshes);
     const int index = static_cast<int>(m_.bodies.size());
     m_.bodies.push_back(b);
     frames_["/bodyset/" + name] = {index, Pose{}};
@@ -114,6 +115,35 @@ class Reader {
     read_wrap_objects(n, index);
   }
   std::vector<xml_node> pending_frames_;
+
+  // Display geometry: 4.x <attached_geometry><Mesh>, 3.x <VisibleObject> (its geometry_files, or a
+  // GeometrySet of DisplayGeometry, each under the VisibleObject's transform and scale).
+  void read_meshes(const xml_node& n, const Pose& frame, std::vector<BodyMesh>& out) {
+    for (const auto& g : n.child("attached_geometry").children("Mesh")) {
+      const std::string file = d_.text(g, "mesh_file");
+      if (!file.empty()) out.push_back({file, d_.vec3(g, "scale_factors", Eigen::Vector3d::Ones()), frame});
+    }
+    const xml_node v = n.child("VisibleObject");
+    if (!v) return;
+    const auto transform = [&](const xml_node& x) {
+      Pose p;
+      if (x.child("transform")) {
+        const auto t = d_.numbers(x, "transform");
+        if (t.size() != 6) d_.fail(x.child("transform"), "expected three rotations (rad) and a translation (m)");
+        p.rotation = rotation_from_body_xyz(Eigen::Vector3d(t[0], t[1], t[2]));
+        p.translation_m = Eigen::Vector3d(t[3], t[4], t[5]);
+      }
+      return p;
+    };
+    const Pose vp = compose(frame, transform(v));
+    const Eigen::Vector3d vs = d_.vec3(v, "scale_factors", Eigen::Vector3d::Ones());
+    const std::string files = d_.text(v, "geometry_files");  // split_ws views into it
+    for (const auto& file : text::split_ws(files)) out.push_back({std::string(file), vs, vp});
+    for (const auto& g : v.child("GeometrySet").child("objects").children("DisplayGeometry")) {
+      const std::string file = d_.text(g, "geometry_file");
+      if (!file.empty()) out.push_back({file, vs.cwiseProduct(d_.vec3(g, "scale_factors", Eigen::Vector3d::Ones())), compose(vp, transform(g))});
+    }
+  }
 
   void read_wrap_objects(const xml_node& body_node, int body) {
     for (const auto& w : body_node.child("WrapObjectSet").child("objects").children()) {
@@ -220,6 +250,7 @@ class Reader {
     const Frame* p = resolve_frame(parent, joint_scope);
     if (!p) return false;
     Frame f{p->body, compose(p->pose, offset_pose(n, "translation", "orientation"))};
+    read_meshes(n, f.pose, m_.bodies[static_cast<std::size_t>(f.body)].meshes);
     const std::string name = n.attribute("name").value();
     if (!joint_scope.empty()) frames_["/jointset/" + joint_scope + "/" + name] = f;
     else frames_[name] = f;

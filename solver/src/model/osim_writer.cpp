@@ -86,6 +86,7 @@ class Writer {
       const Body &b = m_.bodies[i], &gb = g_.bodies[gi];
       if (b.mass_kg != gb.mass_kg) set_child_text(n, "mass", number_text(b.mass_kg));
       if (b.com_m != gb.com_m) set_child_text(n, "mass_center", vec3_text(b.com_m));
+      write_mesh_scales(n, b, gb);
       if (b.inertia_kg_m2 == gb.inertia_kg_m2) continue;
       const Eigen::Matrix3d& I = b.inertia_kg_m2;
       if (n.child("inertia") || (version_ >= 40000 && !n.child("inertia_xx"))) {
@@ -97,6 +98,23 @@ class Writer {
         for (int k = 0; k < 6; ++k) set_child_text(n, names[k], number_text(values[k]));
       }
     }
+  }
+
+  // The body's own meshes, in the order the reader took them (4.x Meshes, or the 3.x VisibleObject's scale).
+  void write_mesh_scales(const xml_node& n, const Body& b, const Body& gb) {
+    std::size_t k = 0;
+    for (const auto& g : n.child("attached_geometry").children("Mesh")) {
+      if (!g.child("mesh_file") || k >= b.meshes.size()) continue;
+      if (b.meshes[k].scale != gb.meshes[k].scale) set_child_text(g, "scale_factors", vec3_text(b.meshes[k].scale));
+      ++k;
+    }
+    const xml_node v = n.child("VisibleObject");
+    if (!v || k >= b.meshes.size() || b.meshes[k].scale == gb.meshes[k].scale) return;
+    // The body's factors onto the VisibleObject's own scale (its geometries' scales are relative to it).
+    const Eigen::Vector3d factor = b.meshes[k].scale.cwiseQuotient(gb.meshes[k].scale);
+    Eigen::Vector3d own = Eigen::Vector3d::Ones();
+    if (v.child("scale_factors")) std::istringstream(v.child_value("scale_factors")) >> own[0] >> own[1] >> own[2];
+    set_child_text(v, "scale_factors", vec3_text(own.cwiseProduct(factor)));
   }
 
   void write_wrap_objects(const xml_node& body) {

@@ -70,6 +70,12 @@ Model scale_model(const Model& generic, const std::vector<Eigen::Vector3d>& fact
   Model m = generic;
   auto f = [&](int body) { return factors[static_cast<std::size_t>(body)]; };
   for (std::size_t b = 1; b < m.bodies.size(); ++b) m.bodies[b].com_m = m.bodies[b].com_m.cwiseProduct(f(static_cast<int>(b)));
+  // Display meshes grow with their bodies, as OpenSim's Frame::scaleAttachedGeometry.
+  for (std::size_t b = 1; b < m.bodies.size(); ++b)
+    for (auto& mesh : m.bodies[b].meshes) {
+      mesh.scale = mesh.scale.cwiseProduct(f(static_cast<int>(b)));
+      mesh.pose.translation_m = mesh.pose.translation_m.cwiseProduct(f(static_cast<int>(b)));
+    }
   for (auto& j : m.joints) {
     j.parent_offset.translation_m = j.parent_offset.translation_m.cwiseProduct(f(j.parent_body));
     j.child_offset.translation_m = j.child_offset.translation_m.cwiseProduct(f(j.child_body));

@@ -38,12 +38,21 @@ struct Pose {
   Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();
 };
 
+// A display mesh fixed to a body (what OpenSim draws: a Mesh's mesh_file, a 3.x VisibleObject's
+// geometry file). Not used by any computation; the dashboard draws it.
+struct BodyMesh {
+  std::string file;                                   // as named in the model (found in a Geometry folder)
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();    // per axis, applied to the mesh's vertices
+  Pose pose;                                          // of the mesh's frame in the body
+};
+
 struct Body {
   std::string name;
   double mass_kg = 0;
   Eigen::Vector3d com_m = Eigen::Vector3d::Zero();          // in the body frame
   Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();  // about the COM, in the body frame
   int joint = -1;                                            // the joint whose child this is; -1 for ground
+  std::vector<BodyMesh> meshes;  // the body's own attached geometry first (document order), then its offset frames'
 };
 
 struct TransformAxis {
