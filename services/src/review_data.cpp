@@ -27,10 +27,36 @@ double round6(double v) { return std::round(v * 1e6) / 1e6; }  // micrometres: e
 
 json trial_kinematics_json(const std::string& model_path, const std::string& marker_set_path, const std::string& ik_mot_path,
                            const std::string& markers_trc, const std::string& grf_mot, const std::string& loads_xml) {
+  return trial_kinematics_json(model_path, marker_set_path, read_storage(ik_mot_path), markers_trc, grf_mot, loads_xml);
+}
+
+Storage motion_at_times(const Storage& motion, const std::vector<double>& times_s, double offset_s) {
+  std::vector<double> kept;
+  std::vector<int> rows;
+  const auto t = motion.time();
+  for (const double time : times_s) {
+    const double local = time - offset_s;
+    if (motion.num_rows() == 0 || local < t[0] - 1e-9 || local > t[motion.num_rows() - 1] + 1e-9) continue;
+    int best = 0;
+    for (int r = 1; r < motion.num_rows(); ++r)
+      if (std::abs(t[r] - local) < std::abs(t[best] - local)) best = r;
+    kept.push_back(time);
+    rows.push_back(best);
+  }
+  Storage out = motion;
+  out.data.resize(static_cast<Eigen::Index>(rows.size()), motion.num_columns());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    out.data.row(static_cast<Eigen::Index>(i)) = motion.data.row(rows[i]);
+    out.data(static_cast<Eigen::Index>(i), 0) = kept[i];
+  }
+  return out;
+}
+
+json trial_kinematics_json(const std::string& model_path, const std::string& marker_set_path, const Storage& ik,
+                           const std::string& markers_trc, const std::string& grf_mot, const std::string& loads_xml) {
   OsimReadOptions ro;
   ro.marker_set_file = marker_set_path;
   const Model model = read_osim(model_path, ro).model;
-  const Storage ik = read_storage(ik_mot_path);
   const MarkerTrial trial = parse_marker_file(markers_trc, "markers");
   std::unique_ptr<AppliedLoads> loads;
   if (!grf_mot.empty()) loads = std::make_unique<AppliedLoads>(model, parse_external_loads(loads_xml, "loads.xml"), parse_storage(grf_mot, "grf.mot"));

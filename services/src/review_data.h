@@ -4,12 +4,23 @@
 // server because the browser has no model.
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
+
+#include "cpgait/capture/storage.h"
 
 namespace cpgait::services {
 
 // model/marker set: the trial's model; ik_mot: the IK result file; markers_trc: the uploaded TRC;
 // grf/loads: the uploaded loads (empty when none). Positions in metres in ground, rotations as
 // quaternions (x, y, z, w).
+// The same over a motion already read (the reproduced gait's, sampled at the trial's frames).
+nlohmann::json trial_kinematics_json(const std::string& model_path, const std::string& marker_set_path, const Storage& motion,
+                                     const std::string& markers_trc, const std::string& grf_mot, const std::string& loads_xml);
+
+// The rows of `motion` nearest to times_s - offset_s (those inside its span), timed at times_s: a
+// simulation that starts at 0 laid on the trial's frames.
+Storage motion_at_times(const Storage& motion, const std::vector<double>& times_s, double offset_s);
+
 nlohmann::json trial_kinematics_json(const std::string& model_path, const std::string& marker_set_path,
                                      const std::string& ik_mot_path, const std::string& markers_trc,
                                      const std::string& grf_mot, const std::string& loads_xml);

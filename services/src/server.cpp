@@ -89,7 +89,9 @@ class Api {
     s.Get(R"(/api/v1/trials/([^/]+)/results/([^/]+))",
           [&](const auto& req, auto& res) { if (auth(req, res)) results(req.matches[1], req.matches[2], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/kinematics)",
-          [&](const auto& req, auto& res) { if (auth(req, res)) kinematics(req.matches[1], res); });
+          [&](const auto& req, auto& res) {
+            if (auth(req, res)) kinematics(req.matches[1], req.has_param("source") ? req.get_param_value("source") : "ik", res);
+          });
     s.Get(R"(/api/v1/trials/([^/]+)/report)",
           [&](const auto& req, auto& res) { if (auth(req, res)) report(req.matches[1], res); });
     s.Get(R"(/api/v1/trials/([^/]+)/cycles)",
@@ -590,15 +592,29 @@ class Api {
     return r;
   }
 
-  void kinematics(const std::string& id, httplib::Response& res) {
+  // source "ik" (default): the trial's; "gait": the reproduced gait laid on the trial's frames (those
+  // its simulation covers), for the dashboard's overlay.
+  void kinematics(const std::string& id, const std::string& source, httplib::Response& res) {
     auto t = find(id, res);
     if (!t) return;
+    if (source != "ik" && source != "gait") return send_error(res, 400, "bad_parameter", "source must be ik or gait", "source");
     const auto in = review_inputs(*t, &res);
     if (!in) return;
     try {
-      send_json(res, 200,
-                trial_kinematics_json(in->model, in->marker_set, (result_dir(*t) / (t->name + "_ik.mot")).string(),
-                                      text::read_file(in->markers_file), in->grf, in->loads));
+      const std::string ik_path = (result_dir(*t) / (t->name + "_ik.mot")).string();
+      if (source == "gait") {
+        const auto gait = std::find_if(t->stages.begin(), t->stages.end(), [](const StageRecord& s) { return s.name == "gait"; });
+        const fs::path motion = result_dir(*t) / (t->name + "_gait.mot");
+        if (gait == t->stages.end() || gait->state != "done" || !gait->summary.contains("reference_begin_s") || !fs::exists(motion))
+          return send_error(res, 409, "not_ready", "the reproduced gait did not run for this trial", "source");
+        const Storage ik = read_storage(ik_path);
+        const std::vector<double> times(ik.time().data(), ik.time().data() + ik.num_rows());
+        return send_json(res, 200,
+                         trial_kinematics_json(in->model, in->marker_set,
+                                               motion_at_times(read_storage(motion.string()), times, gait->summary["reference_begin_s"].get<double>()),
+                                               text::read_file(in->markers_file), "", ""));
+      }
+      send_json(res, 200, trial_kinematics_json(in->model, in->marker_set, ik_path, text::read_file(in->markers_file), in->grf, in->loads));
     } catch (const std::exception& e) {
       send_error(res, 409, "not_ready", std::string("kinematics not available: ") + e.what());
     }

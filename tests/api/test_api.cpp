@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
@@ -398,6 +399,14 @@ TEST(ApiReference, GenericModelAndStaticTrialAreScaledFirst) {
   double mass = 0;  // the scaled model's (the subject's 72.6 kg), not the generic 75.16 kg
   for (const auto& b : kin["bodies"]) mass += b["mass_kg"].get<double>();
   EXPECT_NEAR(mass, 72.6, 1e-6);
+  // The reproduced gait laid on the trial's frames for the overlay: a subset of IK's times.
+  const json gait = body(c.Get(("/api/v1/trials/" + id + "/kinematics?source=gait").c_str()));
+  ASSERT_TRUE(gait.contains("frames")) << gait.dump().substr(0, 300);
+  ASSERT_GT(gait["frames"].size(), 10u);
+  std::set<double> ik_times;
+  for (const auto& f : kin["frames"]) ik_times.insert(f["time"].get<double>());
+  for (const auto& f : gait["frames"]) EXPECT_TRUE(ik_times.count(f["time"].get<double>())) << f["time"];
+  EXPECT_EQ(c.Get(("/api/v1/trials/" + id + "/kinematics?source=cmc").c_str())->status, 400);
   fs::remove_all(dir);
 }
 

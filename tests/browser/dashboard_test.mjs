@@ -208,6 +208,33 @@ try {
     assert.ok(meshes >= 5 * lines, `meshes ${meshes} vs lines ${lines}`);
   });
 
+  await check('side by side: the reproduced gait as a second, translucent figure on the trial\'s timeline', async () => {
+    if (!haveShared) return;  // the walker's trial is too short for the reproduced gait
+    const r = await page.evaluate(() => {
+      const v = window.__cpgait.viewer;
+      let shown = 0;
+      v.kin.frames.forEach((_, i) => { shown += v.overlayShownAt(i); });
+      const first = v.overlay.frameAt.findIndex((k) => k >= 0);
+      v.show(first + 10);
+      const drawn = (groups) => groups.filter((g) => g.visible && g.children.length).length;
+      return { frames: v.kin.frames.length, shown, first, trial: drawn(v.boneGroups), overlay: drawn(v.overlay.groups),
+        withMeshes: v.kin.bodies.filter((b) => b.meshes.length).length,
+        opacity: v.overlay.groups.find((g) => g.children.length).children[0].material.opacity };
+    });
+    assert.ok(r.shown >= 60, `the reproduced gait covers only ${r.shown} of ${r.frames} frames`);
+    assert.equal(r.withMeshes, 12);  // gait2392's bodies, ground aside
+    assert.equal(r.trial, r.withMeshes);
+    assert.equal(r.overlay, r.withMeshes);  // two figures, every body's bones in each
+    assert.ok(r.opacity < 1);
+    const withOverlay = (await viewerPixels()).lit;
+    await page.evaluate(() => window.__cpgait.viewer.setOverlayVisible(false));
+    const without = (await viewerPixels()).lit;
+    await page.evaluate(() => window.__cpgait.viewer.setOverlayVisible(true));
+    assert.ok(withOverlay > without, `overlay adds no pixels (${withOverlay} vs ${without})`);
+    await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-overlay.png') });
+    await page.evaluate(() => window.__cpgait.viewer.show(window.__cpgait.frame));
+  });
+
   await check('plots hold the right number of series', async () => {
     const counts = await page.evaluate(() => {
       const p = window.__cpgait.plots;

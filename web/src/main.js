@@ -326,6 +326,16 @@ async function trialView(id) {
   musclesBox.addEventListener('change', () => viewer.setMusclesVisible(musclesBox.checked));
   viewerBox.parentElement.querySelector('.controls').append(...viewButtons, h('label', {}, linesBox, ' bones as lines'),
     h('label', {}, musclesBox, ' muscles'));
+  // The reproduced gait over the measured trial: a second, translucent figure on the same timeline.
+  if (gaitRan) {
+    const kin2 = await api(`/trials/${id}/kinematics?source=gait`).catch(() => null);
+    if (kin2 && kin2.frames.length) {
+      viewer.addOverlay(kin2, 'reproduced gait');
+      const overlayBox = h('input', { type: 'checkbox', id: 'show-overlay', checked: true });
+      overlayBox.addEventListener('change', () => viewer.setOverlayVisible(overlayBox.checked));
+      legend.append(h('span', {}, h('i', { style: 'background:#38bdf8' }), h('label', {}, overlayBox, ` reproduced gait (translucent; ${kin2.frames.length} of ${n} frames)`)));
+    }
+  }
   // Muscles coloured by static optimization's activations (the SO row nearest the frame's time).
   if (so && kin.muscle_names) {
     const act = so.tables[0], actTime = act.columns[0];

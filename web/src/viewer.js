@@ -6,6 +6,20 @@ import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 
 const GRF_M_PER_N = 0.001;  // 1 mm of arrow per newton
 
+// A mesh file's triangles ({positions, triangles}) placed as the model attaches it (m: file, scale,
+// translation, rotation in the body).
+function boneMesh(data, m, material) {
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(data.positions), 3));
+  geometry.setIndex(data.triangles);
+  geometry.computeVertexNormals();
+  const mesh = new THREE.Mesh(geometry, material);
+  mesh.scale.set(...m.scale);
+  mesh.position.set(...m.translation);
+  mesh.quaternion.set(...m.rotation);
+  return mesh;
+}
+
 export class Viewer {
   constructor(container, kin) {
     this.kin = kin;
@@ -46,6 +60,8 @@ export class Viewer {
     this.muscles.frustumCulled = false;
     this.scene.add(this.muscles);
     this.activation = null;  // (frameIndex, muscleIndex) -> 0..1, or null: set by setActivation
+    this.meshData = new Map();  // mesh file -> promise of its triangles (shared with the overlay)
+    this.overlay = null;
     // Progression: where the pelvis went over the trial (+x when it stayed in place).
     const first = kin.frames[0].bodies[0], last = kin.frames[kin.frames.length - 1].bodies[0];
     this.forward = new THREE.Vector3(last[0] - first[0], 0, last[2] - first[2]);
@@ -92,21 +108,13 @@ export class Viewer {
   // instead of the lines; returns how many were drawn.
   async loadMeshes(fetchMesh) {
     const material = new THREE.MeshLambertMaterial({ color: 0xe8e1cf });
-    const cache = new Map();
+    const cache = this.meshData;
     await Promise.all(this.kin.bodies.map(async (b, i) => {
       for (const m of b.meshes || []) {
         if (!cache.has(m.file)) cache.set(m.file, fetchMesh(m.file));
         const data = await cache.get(m.file);
         if (!data) continue;
-        const geometry = new THREE.BufferGeometry();
-        geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(data.positions), 3));
-        geometry.setIndex(data.triangles);
-        geometry.computeVertexNormals();
-        const mesh = new THREE.Mesh(geometry, material);
-        mesh.scale.set(...m.scale);
-        mesh.position.set(...m.translation);
-        mesh.quaternion.set(...m.rotation);
-        this.boneGroups[i].add(mesh);
+        this.boneGroups[i].add(boneMesh(data, m, material));
         this.meshCount++;
       }
     }));
@@ -114,6 +122,64 @@ export class Viewer {
     this.show(0);
     this.setView(this.view);
     return this.meshCount;
+  }
+
+  // A second, translucent figure on the same timeline (the reproduced gait over the measured one):
+  // kin2's frames are matched to this trial's by time; the figure hides where kin2 has no frame.
+  addOverlay(kin2, label) {
+    const material = new THREE.MeshLambertMaterial({ color: 0x38bdf8, transparent: true, opacity: 0.45, depthWrite: false });
+    const groups = kin2.bodies.map(() => { const g = new THREE.Group(); this.scene.add(g); return g; });
+    kin2.bodies.forEach((b, i) => {
+      for (const m of b.meshes || []) {
+        const data = this.meshData.get(m.file);
+        if (!data) continue;
+        data.then((d) => {
+          if (!d) return;
+          groups[i].add(boneMesh(d, m, material));
+          this.render();
+        });
+      }
+    });
+    // Without meshes: its bones as lines.
+    const lines = new THREE.LineSegments(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0x38bdf8, transparent: true, opacity: 0.8 }));
+    lines.geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(kin2.bodies.length * 6), 3));
+    this.scene.add(lines);
+    const names = kin2.bodies.map((b) => b.name), parent = kin2.bodies.map((b) => names.indexOf(b.parent));
+    const frameAt = this.kin.frames.map((f) => kin2.frames.findIndex((g) => Math.abs(g.time - f.time) < 1e-6));
+    this.overlay = { kin: kin2, label, groups, lines, parent, frameAt, visible: true };
+    if (this.frameIndex != null) this.show(this.frameIndex);
+  }
+
+  setOverlayVisible(visible) {
+    this.overlay.visible = visible;
+    this.show(this.frameIndex);
+  }
+
+  // Whether the overlay's figure is drawn at this frame.
+  overlayShownAt(frameIndex) {
+    return !!this.overlay && this.overlay.visible && this.overlay.frameAt[frameIndex] >= 0;
+  }
+
+  showOverlay(frameIndex) {
+    const o = this.overlay;
+    const k = o.frameAt[frameIndex];
+    const g = k >= 0 && o.visible ? o.kin.frames[k] : null;
+    const meshes = o.groups.some((grp) => grp.children.length);
+    o.groups.forEach((grp, i) => {
+      grp.visible = !!g && meshes;
+      if (g) { const p = g.bodies[i]; grp.position.set(p[0], p[1], p[2]); grp.quaternion.set(p[3], p[4], p[5], p[6]); }
+    });
+    o.lines.visible = !!g && !meshes;
+    if (g) {
+      const pos = o.lines.geometry.attributes.position;
+      g.bodies.forEach((p, i) => {
+        const a = o.parent[i] >= 0 ? g.bodies[o.parent[i]] : p;
+        pos.setXYZ(2 * i, a[0], a[1], a[2]);
+        pos.setXYZ(2 * i + 1, p[0], p[1], p[2]);
+      });
+      pos.needsUpdate = true;
+      o.lines.geometry.computeBoundingSphere();
+    }
   }
 
   // Muscle colours follow activation(frameIndex, muscleIndex) in 0..1 (grey-blue at rest, red at 1).
@@ -185,6 +251,7 @@ export class Viewer {
     if (!f) return;
     this.frameIndex = frameIndex;
     this.showMuscles(f, frameIndex);
+    if (this.overlay) this.showOverlay(frameIndex);
     const pos = this.bones.geometry.attributes.position;
     f.bodies.forEach((p, i) => {
       this.joints[i].position.set(p[0], p[1], p[2]);
