@@ -116,7 +116,8 @@ try {
     await page.click('#stage-options summary');
   });
 
-  let trialId;
+  let scaledId;
+let trialId;
   await check('upload a trial and watch it complete', async () => {
     if (model) {
       await page.setInputFiles('#osim', model);
@@ -359,11 +360,32 @@ try {
       await page.click('#upload button[type=submit]');
       await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
       await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 120000 });
+      scaledId = page.url().match(/trial\/([0-9a-f]{16})/)[1];
       assert.equal(await page.locator('#scale-factors tr').count(), 1 + 12);  // header, then gait2392's 12 bodies
       assert.match(await page.locator('#scale-factors').textContent(), /pelvis1\.0246/);
       assert.ok(await page.locator('#static-marker-errors .row').count() >= 30);
       await page.locator('#scale-factors').scrollIntoViewIfNeeded();
       await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-scaling.png'), fullPage: true });
+    });
+  }
+
+  if (haveShared) {
+    await check('comparing two trials: both trials\' gait cycles on one plot, picked in the list', async () => {
+      await page.goto(`${base}/#/`);
+      await page.locator(`input.compare-pick[data-id="${trialId}"]`).check();
+      await page.locator(`input.compare-pick[data-id="${scaledId}"]`).check();
+      await page.click('#compare');
+      await page.waitForURL(/#\/compare\//);
+      await page.waitForFunction(() => window.__cpgait.ready === true && window.__cpgait.plots.compare, null, { timeout: 60000 });
+      const r = await page.evaluate(() => { const p = window.__cpgait.plots.compare; return { groups: p.groups, labels: p.series.map((s) => s.label), x: p.data[0], at50: p.data.map((d) => d[50]) }; });
+      assert.deepEqual(r.groups.map((g) => g.label).sort(), ['A left', 'A right', 'B left', 'B right']);
+      assert.equal(r.x[0], 0);
+      assert.equal(r.x[100], 100);
+      // A's right mean is trial A's own knee_angle_r mean from its cycles.
+      const a = await (await page.request.get(`${base}/api/v1/trials/${trialId}/cycles`)).json();
+      const knee = a.panels.find((p) => p.name === 'kinematics').series.find((s) => s.name === 'knee_angle_r');
+      assert.ok(Math.abs(r.at50[r.labels.indexOf('A right mean')] - knee.mean[50]) < 1e-9);
+      await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-compare.png'), fullPage: true });
     });
   }
 

@@ -52,6 +52,8 @@ function route() {
   const hash = location.hash || '#/';
   const m = hash.match(/^#\/trial\/([0-9a-f]{16})/);
   if (m) return trialView(m[1]);
+  const c = hash.match(/^#\/compare\/([0-9a-f]{16})\/([0-9a-f]{16})/);
+  if (c) return compareView(c[1], c[2]);
   if (hash.startsWith('#/upload')) return uploadView();
   return listView();
 }
@@ -71,17 +73,28 @@ function metrics(t) {
 }
 async function listView() {
   app.replaceChildren(h('h1', {}, 'Trials'), h('p', { class: 'muted' }, 'Loading…'));
+  // Two finished trials picked here open side by side in the gait-cycle comparison.
+  const picked = new Set();
+  const compareBtn = h('button', { id: 'compare', type: 'button', disabled: true }, 'Compare gait cycles');
+  compareBtn.addEventListener('click', () => { location.hash = `#/compare/${[...picked].join('/')}`; });
   const render = async () => {
     let data;
     try { data = await api('/trials?limit=100'); } catch (e) { app.replaceChildren(h('h1', {}, 'Trials'), h('p', { class: 'form-error' }, e.message)); return []; }
+    const pick = (t) => {
+      const box = h('input', { type: 'checkbox', class: 'compare-pick', 'data-id': t.id, checked: picked.has(t.id), disabled: t.status !== 'done',
+        title: 'select two finished trials to compare their gait cycles' });
+      box.addEventListener('change', () => { if (box.checked) picked.add(t.id); else picked.delete(t.id); compareBtn.disabled = picked.size !== 2; });
+      return box;
+    };
     const rows = data.trials.map((t) => h('tr', { 'data-id': t.id },
-      h('td', {}, h('a', { href: `#/trial/${t.id}` }, t.name)),
+      h('td', {}, pick(t), ' ', h('a', { href: `#/trial/${t.id}` }, t.name)),
       h('td', {}, h('span', { class: `status ${t.status}` }, t.status)),
       h('td', {}, t.stages.map(stageCell)),
       h('td', { class: 'muted' }, metrics(t)),
       h('td', { class: 'muted' }, new Date(t.created_at).toLocaleString())));
+    compareBtn.disabled = picked.size !== 2;
     app.replaceChildren(
-      h('h1', {}, 'Trials ', h('a', { href: '#/upload' }, h('button', {}, 'Upload a trial'))),
+      h('h1', {}, 'Trials ', h('a', { href: '#/upload' }, h('button', {}, 'Upload a trial')), ' ', compareBtn),
       h('div', { class: 'card' }, data.trials.length
         ? h('table', { id: 'trials' }, h('tr', {}, ['Trial', 'Status', 'Stages', 'Key metrics', 'Created'].map((x) => h('th', {}, x))), rows)
         : h('p', { class: 'muted' }, 'No trials yet. Upload one to start.')));
@@ -103,6 +116,49 @@ async function listView() {
   function scheduleRender() { if (!pending) pending = setTimeout(async () => { pending = null; await render(); }, 150); }
   const timer = setInterval(() => { if (token() || open.length === 0) render(); }, 3000);
   state.cleanups.push(() => clearInterval(timer), () => pending && clearTimeout(pending));
+}
+
+// ---------------------------------------------------------------- comparison
+// Two trials' gait cycles on one plot: each trial's strides thin and its mean ± SD, right and left.
+async function compareView(a, b) {
+  app.replaceChildren(h('p', { class: 'muted' }, 'Loading…'));
+  let trials, cycles;
+  try {
+    trials = await Promise.all([api(`/trials/${a}`), api(`/trials/${b}`)]);
+    cycles = await Promise.all([api(`/trials/${a}/cycles`), api(`/trials/${b}/cycles`)]);
+  } catch (e) { app.replaceChildren(h('p', { class: 'form-error' }, e.message)); return; }
+  const tag = ['A', 'B'];
+  const colours = [{ r: '#2563eb', l: '#60a5fa' }, { r: '#ea580c', l: '#f59e0b' }];
+  const base = (name) => name.replace(/_(r|l)(_moment|_force)?$/, '$2');
+  const panelNames = cycles[0].panels.filter((p) => cycles[1].panels.some((q) => q.name === p.name && q.series.length) && p.series.length).map((p) => p.name);
+  const panelSel = h('select', { id: 'compare-panel' }, panelNames.map((n) => h('option', { value: n }, n)));
+  const quantitySel = h('select', { id: 'compare-quantity' });
+  const box = h('div', { id: 'plot-compare' });
+  app.replaceChildren(h('h1', {}, 'Gait cycles compared'),
+    h('div', { class: 'card' }, trials.map((t, i) => h('div', {}, h('b', {}, `${tag[i]}: `), h('a', { href: `#/trial/${t.id}` }, t.name), ` (${t.id}, ${new Date(t.created_at).toLocaleString()})`)),
+      h('div', { class: 'controls' }, panelSel, quantitySel), box));
+  const fill = () => {
+    const names = new Set(cycles[0].panels.find((p) => p.name === panelSel.value).series.map((s) => base(s.name)));
+    const both = [...new Set(cycles[1].panels.find((p) => p.name === panelSel.value).series.map((s) => base(s.name)))].filter((n) => names.has(n));
+    const preferred = ['knee_angle', 'knee_angle_moment', 'soleus'].find((n) => both.includes(n)) || both[0];
+    quantitySel.replaceChildren(...both.map((n) => h('option', { value: n, selected: n === preferred }, n)));
+  };
+  const draw = () => {
+    const groups = [];
+    cycles.forEach((cy, i) => {
+      for (const s of cy.panels.find((p) => p.name === panelSel.value).series.filter((x) => base(x.name) === quantitySel.value))
+        groups.push({ label: `${tag[i]} ${/_l(_moment|_force)?$/.test(s.name) ? 'left' : /_r(_moment|_force)?$/.test(s.name) ? 'right' : s.name}`,
+          color: colours[i][s.side], strides: s.strides, mean: s.mean, sd: s.sd, unit: s.unit });
+    });
+    box.replaceChildren();
+    const unit = groups[0] && groups[0].unit;
+    window.__cpgait.plots.compare = cyclePlot(box, cycles[0].percent, groups, `${quantitySel.value}${unit ? ` (${unit})` : ''}`, null);
+    window.__cpgait.plots.compare.groups = groups.map((g) => ({ label: g.label, strides: g.strides.length }));
+  };
+  panelSel.addEventListener('change', () => { fill(); draw(); });
+  quantitySel.addEventListener('change', draw);
+  if (panelNames.length) { fill(); draw(); }
+  window.__cpgait.ready = true;
 }
 
 // ---------------------------------------------------------------- upload

@@ -70,7 +70,7 @@ export function cyclePlot(container, percent, groups, yLabel, norm) {
   const series = [{ label: '% of gait cycle' }];
   const data = [percent];
   const bands = [];
-  const add = (label, values, style) => { series.push(Object.assign({ label }, style)); data.push(values); return data.length - 1; };
+  const add = (label, values, style) => { series.push(Object.assign({ label, points: { show: false } }, style)); data.push(values); return data.length - 1; };
   const band = (mean, sd, label, color, fill) => {
     const hi = add(`${label} +SD`, mean.map((m, i) => m + sd[i]), { stroke: color, width: 0 });
     const lo = add(`${label} −SD`, mean.map((m, i) => m - sd[i]), { stroke: color, width: 0 });
