@@ -32,6 +32,7 @@ for t in "${targets[@]}"; do
     trc) seed trc $(find $shared -name '*.trc' -size -300k 2>/dev/null | head -20) ;;
     storage) seed storage $(find $shared \( -name '*.mot' -o -name '*.sto' \) -size -300k 2>/dev/null | head -30) ;;
     c3d) seed c3d $(find $shared/c3d -name '*.c3d' 2>/dev/null) ;;
+    mesh) seed mesh $(find $shared \( -name '*.vtp' -o -name '*.stl' -o -name '*.obj' \) -size -100k 2>/dev/null | head -12) ;;
     osim) seed osim $(find $shared -name '*.osim' -size -200k 2>/dev/null | head -20) ;;
     external_loads) seed external_loads $(grep -rl ExternalLoads $shared --include=*.xml 2>/dev/null | head -10) ;;
     scale_setup) seed scale_setup $(grep -rl ScaleTool $shared --include=*.xml 2>/dev/null | head -10) ;;

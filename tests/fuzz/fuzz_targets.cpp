@@ -37,6 +37,7 @@
 #include "cpgait/video/calibration_board.h"
 #include "cpgait/video/camera.h"
 #include "cpgait/video/tag_set.h"
+#include "mesh_files.h"
 #include "pipeline.h"
 #include "server.h"
 
@@ -141,7 +142,7 @@ std::string multipart(const std::string& path, const std::vector<std::pair<std::
 const std::vector<std::string>& fuzz_target_names() {
   static const std::vector<std::string> names = {"trc",         "storage",     "c3d",           "osim",         "external_loads",
                                                  "ik_tasks_json", "scale_setup", "setup_xml",   "video_json",   "contact_set_json",
-                                                 "cpg_model_json", "pipeline_options", "upload"};
+                                                 "cpg_model_json", "pipeline_options", "upload", "mesh"};
   return names;
 }
 
@@ -194,6 +195,15 @@ void fuzz_one(std::string_view target, std::string_view bytes) {
       services::PipelineOptions::parse(std::string(bytes), "fuzz.json");
     } else if (target == "upload") {
       post_upload(bytes);
+    } else if (target == "mesh") {
+      // The same bytes as each kind of mesh file a model may name.
+      const std::string content(bytes);
+      for (const char* name : {"fuzz.vtp", "fuzz.stl", "fuzz.obj"}) {
+        try {
+          services::parse_mesh(content, name);
+        } catch (const InputError&) {
+        }
+      }
     } else {
       std::fprintf(stderr, "no fuzz target '%.*s'\n", static_cast<int>(target.size()), target.data());
       std::abort();
@@ -250,6 +260,19 @@ std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
             "start": {"x": [0.1, 0], "f": [0, 0]}, "cycle_s": 1.1, "muscles": ["soleus_r", "tib_ant_r"],
             "output_map": [[1, 0], [0, 1]], "output_bias": [0, 0], "feedback": {"signals": []}})",
         R"({"network": {"s": [1]}})"}},
+      {"mesh",
+       {"<?xml version=\"1.0\"?><VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\"><PolyData><Piece NumberOfPoints=\"3\" "
+        "NumberOfPolys=\"1\"><Points><DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 0 0 0 1 0</DataArray></Points>"
+        "<Polys><DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">0 1 2</DataArray><DataArray type=\"Int32\" Name=\"offsets\" "
+        "format=\"ascii\">3</DataArray></Polys></Piece></PolyData></VTKFile>",
+        // The same triangle in binary (base64 of a 4-byte count and the floats), and compressed-header garbage.
+        "<VTKFile type=\"PolyData\" byte_order=\"LittleEndian\"><PolyData><Piece><Points><DataArray type=\"Float32\" format=\"binary\">"
+        "JAAAAAAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAAAAA==</DataArray></Points><Polys><DataArray type=\"Int32\" Name=\"connectivity\" "
+        "format=\"ascii\">0 1 2</DataArray><DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">3</DataArray></Polys></Piece></PolyData></VTKFile>",
+        "<VTKFile type=\"PolyData\" compressor=\"vtkZLibDataCompressor\"><PolyData><Piece><Points><DataArray type=\"Float32\" format=\"binary\">"
+        "AQAAAACAAAAkAAAAEAAAAA==eJxjYGBgAGEMDAABAAE=</DataArray></Points></Piece></PolyData></VTKFile>",
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1/1/1 2//1 3 -1\n"}},
       {"pipeline_options",
        {R"({"model": "walker", "stages": ["ik", "id"], "time_range": [0.1, 1.2], "ik": {"accuracy": 1e-5}})", "[]", "{\"stages\": 3}"}},
       {"upload",
@@ -258,7 +281,9 @@ std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
                                      {"grf", {"grf.mot", "endheader\ntime\tx\n0\t1\n"}}, {"loads", {"loads.xml", "<ExternalLoads/>"}}}),
         multipart("/api/v1/trials", {{"static", {"static.trc", short_trc}}, {"markers", {"walk.trc", short_trc}},
                                      {"options", {"options.json", R"({"model": "walker"})"}}}),
-        multipart("/api/v1/models", {{"model", {"walker.osim", walker_osim}}}), "/api/v1/trials\n--cpgaitfuzz--\r\n"}}};
+        multipart("/api/v1/models", {{"model", {"walker.osim", walker_osim}}}),
+        multipart("/api/v1/models", {{"model", {"walker.osim", walker_osim}}, {"geometry", {"bone.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}}}),
+        "/api/v1/trials\n--cpgaitfuzz--\r\n"}}};
 }
 
 }  // namespace cpgait::testing
