@@ -6,6 +6,7 @@
 #include <array>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <pugixml.hpp>
 
@@ -167,7 +168,10 @@ TriangleMesh parse_vtp(const std::string& content, const std::string& name) {
     const auto base = static_cast<unsigned>(mesh.positions.size() / 3);
     const std::vector<double> points = arrays.values(piece.child("Points").child("DataArray"));
     if (points.size() % 3) throw InputError(name, 0, "Points", "point coordinates not a multiple of three");
-    for (const double v : points) mesh.positions.push_back(static_cast<float>(v));
+    for (const double v : points) {
+      if (!(std::abs(v) <= 3.4e38)) throw InputError(name, 0, "Points", "a coordinate that is not a finite float");  // NaN too
+      mesh.positions.push_back(static_cast<float>(v));
+    }
     const auto n = static_cast<unsigned>(points.size() / 3);
     for (const char* cells : {"Polys", "Strips"}) {
       std::vector<double> connectivity, offsets;
@@ -177,10 +181,12 @@ TriangleMesh parse_vtp(const std::string& content, const std::string& name) {
       }
       std::size_t begin = 0;
       for (const double end_d : offsets) {
+        // Written so that NaN fails too.
+        if (!(end_d >= static_cast<double>(begin) && end_d <= static_cast<double>(connectivity.size())))
+          throw InputError(name, 0, cells, "offsets run past the connectivity or go backwards");
         const auto end = static_cast<std::size_t>(end_d);
-        if (end < begin || end > connectivity.size()) throw InputError(name, 0, cells, "offsets run past the connectivity");
         for (std::size_t i = begin; i < end; ++i)
-          if (connectivity[i] < 0 || connectivity[i] >= n) throw InputError(name, 0, cells, "a cell names a point that does not exist");
+          if (!(connectivity[i] >= 0 && connectivity[i] < n)) throw InputError(name, 0, cells, "a cell names a point that does not exist");
         for (std::size_t k = begin + 2; k < end; ++k) {
           const bool strip = std::strcmp(cells, "Strips") == 0;
           const std::size_t a = strip ? k - 2 : begin, b = strip && (k - begin) % 2 ? k : k - 1, c = strip && (k - begin) % 2 ? k - 1 : k;
