@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "output_files.h"
+#include "review_data.h"
 
 namespace cpgait::services {
 using nlohmann::json;
@@ -171,10 +172,7 @@ std::string trial_report_html(const TrialRecord& t, const ModelRecord* model, co
         for (const auto& q : quantities) {
           json chosen = json::array();
           for (const auto& s : panel["series"]) {
-            std::string base = s["name"];
-            for (const char* suffix : {"_moment", "_force"})
-              if (base.size() > std::strlen(suffix) && base.compare(base.size() - std::strlen(suffix), std::string::npos, suffix) == 0)
-                base.resize(base.size() - std::strlen(suffix));
+            const std::string base = column_quantity(s["name"]);
             if (base == q || base == q + "_r" || base == q + "_l") chosen.push_back(s);
           }
           if (chosen.empty()) continue;

@@ -37,9 +37,10 @@ Storage motion_at_times(const Storage& motion, const std::vector<double>& times_
   for (const double time : times_s) {
     const double local = time - offset_s;
     if (motion.num_rows() == 0 || local < t[0] - 1e-9 || local > t[motion.num_rows() - 1] + 1e-9) continue;
-    int best = 0;
-    for (int r = 1; r < motion.num_rows(); ++r)
-      if (std::abs(t[r] - local) < std::abs(t[best] - local)) best = r;
+    // The nearest row: the first at or after `local`, or the one before it.
+    const int after = static_cast<int>(std::lower_bound(t.begin(), t.end(), local) - t.begin());
+    int best = std::min(after, motion.num_rows() - 1);
+    if (after > 0 && (after == motion.num_rows() || local - t[after - 1] <= t[after] - local)) best = after - 1;
     kept.push_back(time);
     rows.push_back(best);
   }
@@ -148,15 +149,20 @@ namespace cpgait::services {
 namespace {
 
 // 'r', 'l', or 0 for a column of neither side ("hip_flexion_l_moment" -> 'l').
-char column_side(std::string name) {
-  for (const char* suffix : {"_moment", "_force"})
-    if (name.size() > std::strlen(suffix) && name.compare(name.size() - std::strlen(suffix), std::string::npos, suffix) == 0)
-      name.resize(name.size() - std::strlen(suffix));
+char column_side(const std::string& column) {
+  const std::string name = column_quantity(column);
   if (name.size() > 2 && name[name.size() - 2] == '_' && (name.back() == 'r' || name.back() == 'l')) return name.back();
   return 0;
 }
 
 }  // namespace
+
+std::string column_quantity(std::string column) {
+  for (const char* suffix : {"_moment", "_force"})
+    if (column.size() > std::strlen(suffix) && column.compare(column.size() - std::strlen(suffix), std::string::npos, suffix) == 0)
+      column.resize(column.size() - std::strlen(suffix));
+  return column;
+}
 
 json trial_cycles_json(const std::string& model_path, const std::string& marker_set_path, const std::string& results_dir,
                        const std::string& trial_name, const std::string& grf_mot, const std::string& loads_xml) {

@@ -29,6 +29,9 @@ nlohmann::json trial_kinematics_json(const std::string& model_path, const std::s
 
 namespace cpgait::services {
 
+// A results column's quantity without its _moment/_force suffix ("knee_angle_r_moment" -> "knee_angle_r").
+std::string column_quantity(std::string column);
+
 // Gait-cycle curves for the dashboard's cycle plots: the trial's kinematics (_ik.mot), joint moments
 // (_id.sto) and muscle activations (static optimization's), each column cut at its side's heel
 // strikes (right for _r columns and for those without a side, left for _l), every stride resampled
