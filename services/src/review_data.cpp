@@ -13,6 +13,7 @@
 #include "cpgait/capture/trc.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/dynamics/contact.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
@@ -23,6 +24,7 @@ using nlohmann::json;
 
 namespace {
 double round6(double v) { return std::round(v * 1e6) / 1e6; }  // micrometres: enough to draw, half the bytes
+double round4(double v) { return std::round(v * 1e4) / 1e4; }  // 0.1 mm: muscles are drawn 10 mm thick
 }  // namespace
 
 json trial_kinematics_json(const std::string& model_path, const std::string& marker_set_path, const std::string& ik_mot_path,
@@ -88,13 +90,25 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
   std::vector<PathVertex<double>> path;
   json muscle_names = json::array();
   for (const auto& m : model.muscles) muscle_names.push_back(m.name);
+  Eigen::MatrixXd q_rows(ik.num_rows(), model.num_coordinates());
+  for (int r = 0; r < ik.num_rows(); ++r) {
+    q_rows.row(r) = model.default_coordinates().transpose();
+    for (int c = 0; c < model.num_coordinates(); ++c)
+      if (columns[c] >= 0) q_rows(r, c) = ik.data(r, columns[c]) * (degrees && model.coordinates[c].is_angle() ? M_PI / 180.0 : 1.0);
+  }
+  // A treadmill: the belt's velocity as the simulations estimate it (the stance foot's), or null
+  // overground and for models without feet they know.
+  json treadmill = nullptr;
+  if (ContactSet feet = default_foot_contacts(model); !feet.spheres.empty()) {
+    place_ground_under_feet(model, feet, std::vector<double>(ik.time().data(), ik.time().data() + ik.num_rows()), q_rows);
+    const Eigen::Vector3d& v = feet.ground_velocity_m_s;
+    if (v.norm() > 0) treadmill = {{"belt_velocity_m_s", {round6(v.x()), round6(v.y()), round6(v.z())}}, {"height_m", round6(feet.ground_height_m)}};
+  }
   json frames = json::array();
   int trial_frame = 0;
   for (int r = 0; r < ik.num_rows(); ++r) {
     const double t = ik.time()[r];
-    Eigen::VectorXd q = model.default_coordinates();
-    for (int c = 0; c < model.num_coordinates(); ++c)
-      if (columns[c] >= 0) q[c] = ik.data(r, columns[c]) * (degrees && model.coordinates[c].is_angle() ? M_PI / 180.0 : 1.0);
+    const Eigen::VectorXd q = q_rows.row(r).transpose();
     forward_kinematics(model, q.data(), ws);
     json poses = json::array(), coms = json::array(), mm = json::array(), measured = json::array(), forces = json::array();
     for (std::size_t b = 1; b < model.bodies.size(); ++b) {
@@ -127,7 +141,7 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
     for (const auto& muscle : model.muscles) {
       current_path(model, muscle, q.data(), ws, path);
       std::vector<double> points;
-      for (const auto& v : path) points.insert(points.end(), {round6(v.x_ground.x()), round6(v.x_ground.y()), round6(v.x_ground.z())});
+      for (const auto& v : path) points.insert(points.end(), {round4(v.x_ground.x()), round4(v.x_ground.y()), round4(v.x_ground.z())});
       muscle_paths.push_back(points);
     }
     frames.push_back({{"time", t}, {"bodies", poses}, {"com", coms}, {"model_markers", mm}, {"measured_markers", measured}, {"grf", forces},
@@ -139,6 +153,7 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
           {"model_marker_names", model_markers},
           {"measured_marker_names", measured_names},
           {"muscle_names", muscle_names},
+          {"treadmill", treadmill},
           {"frames", frames}};
 }
 

@@ -324,6 +324,62 @@ TEST(ApiReference, ModelMeshesAreUploadedCheckedAndServed) {
   fs::remove_all(dir);
 }
 
+// subject01 walked on a treadmill (its pelvis stays within 2 cm over 3.5 s): the review finds the
+// belt from the stance feet. The same markers carried forward at u m/s move the belt estimate by
+// exactly u; carried at the belt's own speed they walk overground, and there is no belt.
+TEST(ApiReference, TreadmillBeltFromTheStanceFeet) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  REQUIRE_REFERENCE(pl + "OutputReference/subject01_simbody.osim");
+  REQUIRE_REFERENCE(pl + "subject01_walk1.trc");
+  const std::string dir = cpgait::refdata::temp_dir("api_treadmill");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{
+                                        {"model", slurp(pl + "OutputReference/subject01_simbody.osim"), "subject01_simbody.osim", ""}});
+  ASSERT_EQ(m->status, 201) << m->body;
+  const std::string model = body(m)["id"];
+  const cpgait::MarkerTrial recorded = cpgait::read_trc(pl + "subject01_walk1.trc");
+  auto kinematics = [&](double carried_m_s) {
+    cpgait::MarkerTrial moved = recorded;
+    for (int f = 0; f < moved.num_frames(); ++f)
+      for (int k = 0; k < moved.num_markers(); ++k) moved.position_m(f, k).x() += carried_m_s * moved.time_s[f];
+    auto t = c.Post("/api/v1/trials", trial_form(cpgait::format_trc(moved), "walk.trc", {{"model", model}, {"stages", {"ik"}}}));
+    const std::string id = body(t)["id"];
+    EXPECT_EQ(wait_finished(c, id, 60), "done");
+    return body(c.Get(("/api/v1/trials/" + id + "/kinematics").c_str()));
+  };
+  const json as_recorded = kinematics(0.0);
+  ASSERT_TRUE(as_recorded["treadmill"].is_object()) << as_recorded["treadmill"];
+  const double belt = as_recorded["treadmill"]["belt_velocity_m_s"][0];
+  std::printf("[info] subject01's treadmill belt: %.3f m/s along x, %.4f along z\n", belt,
+              as_recorded["treadmill"]["belt_velocity_m_s"][2].get<double>());
+  EXPECT_LT(belt, -0.8);  // backwards, at a walking speed
+  EXPECT_GT(belt, -1.6);
+  const json carried = kinematics(0.5);
+  ASSERT_TRUE(carried["treadmill"].is_object());
+  EXPECT_NEAR(carried["treadmill"]["belt_velocity_m_s"][0].get<double>(), belt + 0.5, 0.01);
+  EXPECT_TRUE(kinematics(-belt)["treadmill"].is_null());
+  fs::remove_all(dir);
+}
+
+// Large JSON leaves gzip-compressed even to clients that also accept Brotli: the HTTP library's
+// Brotli (quality 11) took 38 s over a 15 s trial's 18 MB kinematics.
+TEST(Api, JsonIsSentWithGzipNotBrotli) {
+  const std::string dir = cpgait::refdata::temp_dir("api_encoding");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto t = c.Post("/api/v1/trials", trial_form(synthetic_trc(2.0), "walk.trc", {{"model", "walker"}, {"stages", {"ik"}}}));
+  const std::string id = body(t)["id"];
+  ASSERT_EQ(wait_finished(c, id, 60), "done");
+  for (const char* accepted : {"gzip, deflate, br", "br;q=1.0, gzip;q=0.8", "br"}) {
+    auto r = c.Get(("/api/v1/trials/" + id + "/kinematics").c_str(), {{"Accept-Encoding", accepted}});
+    ASSERT_EQ(r->status, 200) << accepted;
+    EXPECT_EQ(r->get_header_value("Content-Encoding"), std::string(accepted) == "br" ? "" : "gzip") << accepted;
+    EXPECT_TRUE(body(r)["frames"].is_array()) << accepted;  // decompressed by the client
+  }
+  fs::remove_all(dir);
+}
+
 TEST(ApiReference, ModelWithSeparateMarkerSet) {
   const std::string model = cpgait::refdata::gait2392("model/gait2392_simbody.osim");
   const std::string markers = cpgait::refdata::gait2392("pipeline/gait2392_Scale_MarkerSet.xml");

@@ -5,7 +5,7 @@
 import assert from 'node:assert/strict';
 import { spawn, execFileSync } from 'node:child_process';
 import { createRequire } from 'node:module';
-import { existsSync, mkdirSync, mkdtempSync, rmSync, statSync } from 'node:fs';
+import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, statSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 
@@ -178,7 +178,7 @@ let trialId;
     // The figure: bones and muscles; the stick figure: lines and joints, as the dashboard drew it before.
     const figureOnly = (mode) => page.evaluate((m) => {
       const v = window.__cpgait.viewer;
-      [...v.modelMarkers, ...v.measuredMarkers, ...v.coms, ...v.arrows, ...v.scene.children.filter((o) => o.type === 'GridHelper')]
+      [v.modelMarkers, v.measuredMarkers, v.coms, ...v.arrows, ...(v.belt ? [v.belt.mesh] : []), ...v.scene.children.filter((o) => o.type === 'GridHelper')]
         .forEach((o) => { o.visible = false; });
       v.muscles.visible = m === 'meshes';
       v.setBoneMode(m);
@@ -189,7 +189,8 @@ let trialId;
     const lines = (await viewerPixels()).lit;
     await page.evaluate(() => {
       const v = window.__cpgait.viewer;
-      [...v.modelMarkers, ...v.coms, ...v.scene.children.filter((o) => o.type === 'GridHelper')].forEach((o) => { o.visible = true; });
+      [v.modelMarkers, v.coms, ...(v.belt ? [v.belt.mesh] : []), ...v.scene.children.filter((o) => o.type === 'GridHelper')].forEach((o) => { o.visible = true; });
+      v.muscles.visible = true;
       v.setBoneMode('meshes');
       v.show(window.__cpgait.frame);
     });
@@ -340,6 +341,86 @@ let trialId;
       assert.equal(r.status(), 200, href);
     }
   });
+
+  if (haveShared) {
+    await check('treadmill: subject01\'s belt is drawn under the feet and moves at the stance feet\'s speed', async () => {
+      await page.goto(`${base}/#/trial/${trialId}`);
+      await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 60000 });
+      const kin = await (await page.request.get(`${base}/api/v1/trials/${trialId}/kinematics`)).json();
+      assert.ok(kin.treadmill, 'subject01 (a treadmill trial) has no belt');
+      const r = await page.evaluate(() => {
+        const v = window.__cpgait.viewer;
+        const at = (f) => { v.show(f); return { t: v.kin.frames[f].time, offset: v.belt.texture.offset.x }; };
+        const a = at(10), b = at(60);
+        // The feet: the lowest body origin over the trial.
+        const lowest = Math.min(...v.kin.frames.map((f) => Math.min(...f.bodies.map((p) => p[1]))));
+        return { a, b, speed: v.belt.speed, period: v.belt.period, visible: v.belt.mesh.visible, y: v.belt.mesh.position.y, lowest,
+          legend: document.querySelector('#belt-legend').textContent };
+      });
+      assert.ok(Math.abs(r.speed - Math.hypot(...kin.treadmill.belt_velocity_m_s)) < 1e-9);
+      assert.ok(r.speed > 0.8 && r.speed < 1.6, `belt ${r.speed} m/s`);
+      // The stripes moved backwards by the belt's travel between the two frames (modulo one stripe).
+      const moved = -(r.speed * (r.b.t - r.a.t)) / r.period;
+      const wrapped = (x) => x - Math.floor(x);
+      assert.ok(Math.abs(wrapped(r.b.offset - r.a.offset) - wrapped(moved)) < 1e-6, JSON.stringify(r));
+      assert.ok(r.visible);
+      assert.ok(Math.abs(r.y - r.lowest) < 0.06, `belt at ${r.y} m, feet down to ${r.lowest} m`);
+      assert.match(r.legend, /treadmill belt, 1\.\d\d m\/s/);
+      await page.evaluate(() => window.__cpgait.setFrame(40));
+      await page.locator('#viewer').screenshot({ path: path.join(ARTIFACTS, 'dashboard-treadmill.png') });
+    });
+
+    await check('a 15 s trial with 92 muscles loads and plays in time (frame time reported)', async () => {
+      const modelId = (await (await page.request.get(`${base}/api/v1/trials/${trialId}`)).json()).options.model;
+      const long = path.join(work, 'walk15.trc');
+      execFileSync(CPGAIT_BINARY, ['synth', '--model', model, '--duration', '15', '-o', long]);
+      const up = await page.request.post(`${base}/api/v1/trials`, { multipart: {
+        markers: { name: 'walk15.trc', mimeType: 'text/plain', buffer: readFileSync(long) },
+        options: JSON.stringify({ model: modelId, stages: ['ik'] }) } });
+      assert.equal(up.status(), 202, await up.text());
+      const id = (await up.json()).id;
+      for (let i = 0; i < 600; i++) {
+        const st = (await (await page.request.get(`${base}/api/v1/trials/${id}`)).json()).status;
+        if (st === 'done') break;
+        assert.ok(st !== 'failed' && st !== 'cancelled', st);
+        await page.waitForTimeout(100);
+      }
+      const t0 = Date.now();
+      await page.goto(`${base}/#/trial/${id}`);
+      await page.waitForFunction(() => window.__cpgait.ready === true && window.__cpgait.frames > 0, null, { timeout: 120000 });
+      const loadMs = Date.now() - t0;
+      const r = await page.evaluate(async () => {
+        const v = window.__cpgait.viewer;
+        const show = v.show.bind(v), work = [];
+        v.show = (i) => { const a = performance.now(); show(i); work.push(performance.now() - a); };
+        const clock = () => Number(document.querySelector('#clock').textContent.match(/t = ([\d.]+)/)[1]);
+        const before = clock(), wall0 = performance.now();
+        document.querySelector('#play').click();
+        const intervals = [];
+        let last = null;
+        await new Promise((done) => {
+          const tick = (now) => { if (last != null) intervals.push(now - last); last = now; if (now - wall0 < 3000) requestAnimationFrame(tick); else done(); };
+          requestAnimationFrame(tick);
+        });
+        document.querySelector('#play').click();
+        const wall = (performance.now() - wall0) / 1000, advanced = clock() - before;
+        v.show = show;
+        const q = (a, p) => { const x = [...a].sort((m, n) => m - n); return x[Math.floor(p * (x.length - 1))]; };
+        return { frames: v.kin.frames.length, muscles: v.kin.muscle_names.length, segments: v.muscles.count, wall, advanced,
+          intervalMedian: q(intervals, 0.5), intervalP95: q(intervals, 0.95), workMedian: q(work, 0.5), workP95: q(work, 0.95),
+          software: v.software, triangles: v.renderer.info.render.triangles, calls: v.renderer.info.render.calls };
+      });
+      console.log(`# 15 s trial (${r.frames} frames, ${r.muscles} muscles, ${r.segments} muscle segments, ${r.triangles} triangles in ${r.calls} draw calls): `
+        + `page ready in ${loadMs} ms; playing, frame interval median ${r.intervalMedian.toFixed(1)} ms (p95 ${r.intervalP95.toFixed(1)}), `
+        + `the frame's own work (pose, muscles, markers, draw call) median ${r.workMedian.toFixed(2)} ms (p95 ${r.workP95.toFixed(2)})`
+        + `${r.software ? '; WebGL is a software rasteriser here (no GPU), antialiasing off' : ''}`);
+      assert.equal(r.frames, 1501);
+      assert.equal(r.muscles, 92);
+      assert.ok(r.segments > 92);
+      // Playback keeps the trial's time whatever the frame rate: 3 s of wall clock play about 3 s.
+      assert.ok(Math.abs(r.advanced - r.wall) < 0.5, `played ${r.advanced} s of the trial in ${r.wall} s`);
+    });
+  }
 
   if (haveShared) {
     await check('a generic model with a static trial and a scale setup: the Scaling card shows the factors and marker errors', async () => {

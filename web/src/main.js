@@ -362,7 +362,8 @@ async function trialView(id) {
   const speedSel = h('select', { id: 'speed' }, [0.25, 0.5, 1, 2].map((s) => h('option', { value: s, selected: s === 1 }, `${s}×`)));
   const clock = h('span', { class: 'muted', id: 'clock' });
   const legend = h('div', { class: 'legend muted' }, h('span', {}, h('i', { style: 'background:#60a5fa' }), 'model markers'), h('span', {}, h('i', { style: 'background:#fb923c' }), 'measured markers'),
-    h('span', {}, h('i', { style: 'background:#facc15' }), 'centres of mass'), kin.frames[0].grf.length ? h('span', {}, h('i', { style: 'background:#22c55e' }), 'ground reaction force (1 mm/N)') : null);
+    h('span', {}, h('i', { style: 'background:#facc15' }), 'centres of mass'), kin.frames[0].grf.length ? h('span', {}, h('i', { style: 'background:#22c55e' }), 'ground reaction force (1 mm/N)') : null,
+    kin.treadmill ? h('span', { id: 'belt-legend' }, h('i', { style: 'background:#94a3b8' }), `treadmill belt, ${fmt(Math.hypot(...kin.treadmill.belt_velocity_m_s), 2)} m/s (from the stance feet)`) : null);
   app.append(h('div', { class: 'card' }, viewerBox, h('div', { class: 'controls' }, play, slider, speedSel, clock), legend,
     h('div', { class: 'muted' }, 'Keys: space plays/pauses, ←/→ step one frame.')));
   const viewer = new Viewer(viewerBox, kin);

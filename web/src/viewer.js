@@ -20,10 +20,47 @@ function boneMesh(data, m, material) {
   return mesh;
 }
 
+// Whether WebGL runs on a software rasteriser (SwiftShader, llvmpipe: a machine without a GPU), where
+// antialiasing doubles every frame's time (a 55k-triangle skeleton: 67 ms against 33 ms here).
+function softwareRenderer() {
+  const gl = document.createElement('canvas').getContext('webgl');
+  if (!gl) return false;
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+  const lose = gl.getExtension('WEBGL_lose_context');
+  if (lose) lose.loseContext();
+  return /swiftshader|llvmpipe|softpipe|software/i.test(name);
+}
+
+const SPHERE = new THREE.SphereGeometry(1, 12, 8);
+
+// Small spheres of one colour and radius (markers, joints, centres of mass) in one draw call:
+// place(i, [x, y, z]) moves one, place(i, null) hides it; positions keeps where each is.
+class Dots extends THREE.InstancedMesh {
+  constructor(count, radius, color) {
+    super(SPHERE, new THREE.MeshLambertMaterial({ color }), Math.max(1, count));
+    this.count = count;
+    this.radius = radius;
+    this.frustumCulled = false;
+    this.instanceMatrix.setUsage(THREE.DynamicDrawUsage);
+    this.positions = Array.from({ length: count }, () => new THREE.Vector3());
+    this.matrix4 = new THREE.Matrix4();
+    for (let i = 0; i < count; ++i) this.place(i, null);
+  }
+
+  place(i, p) {
+    if (p) this.positions[i].set(p[0], p[1], p[2]);
+    this.matrix4.makeScale(...(p ? [this.radius, this.radius, this.radius] : [0, 0, 0])).setPosition(this.positions[i]);
+    this.setMatrixAt(i, this.matrix4);
+    this.instanceMatrix.needsUpdate = true;
+  }
+}
+
 export class Viewer {
   constructor(container, kin) {
     this.kin = kin;
-    this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    this.software = softwareRenderer();
+    this.renderer = new THREE.WebGLRenderer({ antialias: !this.software, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(window.devicePixelRatio || 1);
     container.appendChild(this.renderer.domElement);
     this.scene = new THREE.Scene();
@@ -37,12 +74,10 @@ export class Viewer {
     const names = kin.bodies.map((b) => b.name);
     this.parentIndex = kin.bodies.map((b) => names.indexOf(b.parent));  // -1: ground
     this.hasChild = kin.bodies.map((_, i) => this.parentIndex.includes(i));
-    const sphere = new THREE.SphereGeometry(1, 12, 8);
-    const mat = (c) => new THREE.MeshLambertMaterial({ color: c });
-    this.joints = kin.bodies.map(() => this.add(new THREE.Mesh(sphere, mat(0xe2e8f0)), 0.025));
-    this.coms = kin.bodies.map(() => this.add(new THREE.Mesh(sphere, mat(0xfacc15)), 0.015));
-    this.modelMarkers = kin.model_marker_names.map(() => this.add(new THREE.Mesh(sphere, mat(0x60a5fa)), 0.012));
-    this.measuredMarkers = kin.measured_marker_names.map(() => this.add(new THREE.Mesh(sphere, mat(0xfb923c)), 0.012));
+    this.joints = this.add(new Dots(kin.bodies.length, 0.025, 0xe2e8f0));
+    this.coms = this.add(new Dots(kin.bodies.length, 0.015, 0xfacc15));
+    this.modelMarkers = this.add(new Dots(kin.model_marker_names.length, 0.012, 0x60a5fa));
+    this.measuredMarkers = this.add(new Dots(kin.measured_marker_names.length, 0.012, 0xfb923c));
     this.bones = new THREE.LineSegments(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0xe2e8f0 }));
     this.bones.geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(kin.bodies.length * 6), 3));
     this.scene.add(this.bones);
@@ -62,11 +97,14 @@ export class Viewer {
     this.activation = null;  // (frameIndex, muscleIndex) -> 0..1, or null: set by setActivation
     this.meshData = new Map();  // mesh file -> promise of its triangles (shared with the overlay)
     this.overlay = null;
-    // Progression: where the pelvis went over the trial (+x when it stayed in place).
+    // Progression: where the pelvis went over the trial; on a treadmill, against the belt (+x when
+    // neither says).
     const first = kin.frames[0].bodies[0], last = kin.frames[kin.frames.length - 1].bodies[0];
     this.forward = new THREE.Vector3(last[0] - first[0], 0, last[2] - first[2]);
+    if (kin.treadmill) this.forward.set(-kin.treadmill.belt_velocity_m_s[0], 0, -kin.treadmill.belt_velocity_m_s[2]);
     if (this.forward.length() < 0.2) this.forward.set(1, 0, 0);
     this.forward.normalize();
+    this.belt = kin.treadmill ? this.addBelt(kin.treadmill, first) : null;
     // The subject's height at the first frame (highest body origin plus a head) sets the framing.
     this.height = Math.max(1.0, ...kin.frames[0].bodies.map((b) => b[1])) + 0.3;
     this.resize = () => {
@@ -80,6 +118,36 @@ export class Viewer {
     this.controls.addEventListener('change', () => this.render());
     this.setView('side');
     this.resize();
+  }
+
+  // A treadmill belt under the subject (centred on the first frame's pelvis), its stripes moving
+  // with the belt's velocity (m/s in ground): showBelt places them at a time.
+  addBelt(treadmill, pelvis) {
+    const v = treadmill.belt_velocity_m_s, speed = Math.hypot(v[0], v[2]);
+    const canvas = document.createElement('canvas');
+    canvas.width = 64; canvas.height = 8;
+    const g = canvas.getContext('2d');
+    g.fillStyle = '#334155'; g.fillRect(0, 0, 64, 8);
+    g.fillStyle = '#94a3b8'; g.fillRect(0, 0, 8, 8);
+    const texture = new THREE.CanvasTexture(canvas);
+    texture.wrapS = texture.wrapT = THREE.RepeatWrapping;
+    const length = 2.4, width = 0.8, period = 0.2;  // m
+    texture.repeat.set(length / period, 1);
+    // Local x along the belt's motion, lying flat at the ground's height.
+    const mesh = new THREE.Mesh(new THREE.PlaneGeometry(length, width).rotateX(-Math.PI / 2),
+      new THREE.MeshBasicMaterial({ map: texture, transparent: true, opacity: 0.85 }));
+    mesh.position.set(pelvis[0], treadmill.height_m + 0.001, pelvis[2]);
+    mesh.rotation.y = Math.atan2(-v[2], v[0]);
+    this.scene.add(mesh);
+    return { mesh, texture, speed, period };
+  }
+
+  // Stripes where the belt has carried them after t seconds: a pattern moved by d along the belt's
+  // motion shows at u what was at u - d.
+  showBelt(t) {
+    const b = this.belt;
+    const offset = -(b.speed * t) / b.period;
+    b.texture.offset.x = offset - Math.floor(offset);
   }
 
   // side (from the subject's right), front or top, at a distance that frames the whole body.
@@ -223,7 +291,7 @@ export class Viewer {
     const meshes = this.boneMode === 'meshes';
     this.boneGroups.forEach((g) => { g.visible = meshes; });
     this.bones.visible = !meshes;
-    this.joints.forEach((j) => { j.visible = !meshes; });
+    this.joints.visible = !meshes;
     this.render();
   }
 
@@ -231,7 +299,7 @@ export class Viewer {
   figureScreenBounds() {
     const box = new THREE.Box3();
     if (this.boneMode === 'meshes') this.boneGroups.forEach((g) => box.expandByObject(g));
-    else this.joints.forEach((j) => box.expandByPoint(j.position));
+    else this.joints.positions.forEach((p) => box.expandByPoint(p));
     const min = [Infinity, Infinity], max = [-Infinity, -Infinity];
     for (const x of [box.min.x, box.max.x]) for (const y of [box.min.y, box.max.y]) for (const z of [box.min.z, box.max.z]) {
       const p = new THREE.Vector3(x, y, z).project(this.camera);
@@ -240,10 +308,9 @@ export class Viewer {
     return { min, max };
   }
 
-  add(mesh, radius) {
-    mesh.scale.setScalar(radius);
-    this.scene.add(mesh);
-    return mesh;
+  add(object) {
+    this.scene.add(object);
+    return object;
   }
 
   show(frameIndex) {
@@ -252,12 +319,13 @@ export class Viewer {
     this.frameIndex = frameIndex;
     this.showMuscles(f, frameIndex);
     if (this.overlay) this.showOverlay(frameIndex);
+    if (this.belt) this.showBelt(f.time);
     const pos = this.bones.geometry.attributes.position;
     f.bodies.forEach((p, i) => {
-      this.joints[i].position.set(p[0], p[1], p[2]);
+      this.joints.place(i, p);
       this.boneGroups[i].position.set(p[0], p[1], p[2]);
       this.boneGroups[i].quaternion.set(p[3], p[4], p[5], p[6]);
-      this.coms[i].position.set(...f.com[i]);
+      this.coms.place(i, f.com[i]);
       // A bone from the parent's origin to this body's; a leaf body also points through its COM.
       const parent = this.parentIndex[i] >= 0 ? f.bodies[this.parentIndex[i]] : p;
       const end = this.hasChild[i] || this.parentIndex[i] < 0 ? p : [2 * f.com[i][0] - p[0], 2 * f.com[i][1] - p[1], 2 * f.com[i][2] - p[2]];
@@ -267,11 +335,8 @@ export class Viewer {
     });
     pos.needsUpdate = true;
     this.bones.geometry.computeBoundingSphere();
-    f.model_markers.forEach((p, i) => this.modelMarkers[i].position.set(p[0], p[1], p[2]));
-    f.measured_markers.forEach((p, i) => {
-      this.measuredMarkers[i].visible = p !== null;
-      if (p) this.measuredMarkers[i].position.set(p[0], p[1], p[2]);
-    });
+    f.model_markers.forEach((p, i) => this.modelMarkers.place(i, p));
+    f.measured_markers.forEach((p, i) => this.measuredMarkers.place(i, p));
     this.arrows.forEach((a) => this.scene.remove(a));
     this.arrows = (f.grf || []).filter((g) => Math.hypot(...g.force) > 5).map((g) => {
       const v = new THREE.Vector3(...g.force);
