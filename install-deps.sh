@@ -8,6 +8,7 @@ PACKAGES=(
   libeigen3-dev libceres-dev libopencv-dev libapriltag-dev
   libcpp-httplib-dev nlohmann-json3-dev libpugixml-dev libsqlite3-dev libpq-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  zip  # the ZIP reader's tests read archives made by Info-ZIP
   postgresql  # the scale-out tests start their own server (initdb into a temporary folder)
   chromium  # the dashboard's browser tests (driven by playwright-core from npm)
 )

@@ -35,7 +35,11 @@ std::string base64_decode(std::string_view in, const std::string& name, const st
   std::uint32_t acc = 0;
   int bits = 0;
   for (const char c : in) {
-    if (c == '=' || std::isspace(static_cast<unsigned char>(c))) continue;
+    if (std::isspace(static_cast<unsigned char>(c))) continue;
+    if (c == '=') {  // padding ends a chunk; VTK writes a compressed array's header and blocks as two
+      bits = 0;
+      continue;
+    }
     const int v = table[static_cast<unsigned char>(c)];
     if (v < 0) throw InputError(name, 0, field, std::string("not base64: '") + c + "'");
     acc = (acc << 6) | static_cast<std::uint32_t>(v);
@@ -48,14 +52,24 @@ std::string base64_decode(std::string_view in, const std::string& name, const st
   return out;
 }
 
-// A VTK DataArray's values, whatever its format: ascii, or binary (base64 of a byte count and the
-// data, or of a zlib block header and compressed blocks).
+// A VTK DataArray's values, whatever its format: ascii, binary (base64 of a byte count and the
+// data, or of a zlib block header and compressed blocks), or appended (the same, raw or base64, at
+// an offset into the file's AppendedData).
 class VtkArrays {
  public:
-  VtkArrays(const pugi::xml_node& file, std::string name) : name_(std::move(name)) {
+  // appended: the AppendedData's content after its '_' (raw bytes, or base64 text).
+  VtkArrays(const pugi::xml_node& file, std::string name, std::string_view appended)
+      : name_(std::move(name)), appended_(appended) {
     compressed_ = std::string(file.attribute("compressor").value()) == "vtkZLibDataCompressor";
     header64_ = std::string(file.attribute("header_type").value()) == "UInt64";
     if (std::string(file.attribute("byte_order").value()) == "BigEndian") throw InputError(name_, 0, "byte_order", "big-endian VTK files are not supported");
+    const std::string encoding = file.child("AppendedData").attribute("encoding").value();
+    if (encoding != "raw" && encoding != "base64" && file.child("AppendedData"))
+      throw InputError(name_, 0, "AppendedData", "encoding '" + encoding + "' is not supported (raw or base64)");
+    appended_base64_ = encoding == "base64";
+    // An appended array runs to the next one's offset (or the end).
+    for (const auto& a : file.select_nodes("//DataArray[@format='appended']")) offsets_.push_back(a.node().attribute("offset").as_ullong());
+    std::sort(offsets_.begin(), offsets_.end());
   }
 
   std::vector<double> values(const pugi::xml_node& array) const {
@@ -78,8 +92,18 @@ class VtkArrays {
       }
       return out;
     }
-    if (format != "binary") throw InputError(name_, 0, field, "format '" + format + "' is not supported (ascii or binary)");
-    const std::string bytes = decode(array.child_value(), field);
+    std::string bytes;
+    if (format == "binary") {
+      bytes = decode(array.child_value(), true, field);
+    } else if (format == "appended") {
+      const std::uint64_t offset = array.attribute("offset").as_ullong();
+      if (offset > appended_.size()) throw InputError(name_, 0, field, "offset " + std::to_string(offset) + " is past the appended data");
+      const auto next = std::upper_bound(offsets_.begin(), offsets_.end(), offset);
+      const std::uint64_t end = next == offsets_.end() ? appended_.size() : std::min<std::uint64_t>(*next, appended_.size());
+      bytes = decode(appended_.substr(offset, end - offset), appended_base64_, field);
+    } else {
+      throw InputError(name_, 0, field, "format '" + format + "' is not supported (ascii, binary or appended)");
+    }
     const std::size_t width = type_width(type, field);
     for (std::size_t i = 0; i + width <= bytes.size(); i += width) out.push_back(value_at(bytes.data() + i, type));
     return out;
@@ -87,7 +111,9 @@ class VtkArrays {
 
  private:
   std::string name_;
-  bool compressed_ = false, header64_ = false;
+  std::string_view appended_;
+  bool compressed_ = false, header64_ = false, appended_base64_ = false;
+  std::vector<std::uint64_t> offsets_;
 
   static std::size_t type_width(const std::string& type, const std::string&) {
     if (type == "Float64" || type == "Int64" || type == "UInt64") return 8;
@@ -117,26 +143,28 @@ class VtkArrays {
     return v;
   }
 
-  std::string decode(const char* text, const std::string& field) const {
-    std::string_view t(text);
-    while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.remove_prefix(1);
+  // An array's bytes from its text (base64) or its raw appended bytes.
+  std::string decode(std::string_view t, bool base64, const std::string& field) const {
+    if (base64)
+      while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.remove_prefix(1);
+    auto bytes_of = [&](std::string_view part) { return base64 ? base64_decode(part, name_, field) : std::string(part); };
+    const std::size_t w = header64_ ? 8 : 4;
     if (!compressed_) {
-      const std::string bytes = base64_decode(t, name_, field);
-      const std::size_t w = header64_ ? 8 : 4;
+      const std::string bytes = bytes_of(t);
       const std::uint64_t n = header_value(bytes, 0, field);
       if (n > bytes.size() - w) throw InputError(name_, 0, field, "binary data shorter than its byte count");
       return bytes.substr(w, n);
     }
     // Compressed: the header (block count, block size, last block's size, each block's compressed
-    // size) is base64 on its own, then the blocks follow as one base64 text.
-    const std::size_t w = header64_ ? 8 : 4;
-    const std::string first = base64_decode(t.substr(0, std::min<std::size_t>(t.size(), 4 * ((3 * w + 2) / 3))), name_, field);
+    // size), then the blocks; in base64, each of the two on its own.
+    auto header_length = [&](std::uint64_t values) { return base64 ? 4 * ((values * w + 2) / 3) : values * w; };
+    const std::string first = bytes_of(t.substr(0, std::min<std::size_t>(t.size(), header_length(3))));
     const std::uint64_t blocks = header_value(first, 0, field);
     if (blocks > (1u << 24)) throw InputError(name_, 0, field, "implausible block count");
-    const std::size_t header_chars = 4 * (((3 + blocks) * w + 2) / 3);
+    const std::size_t header_chars = header_length(3 + blocks);
     if (header_chars > t.size()) throw InputError(name_, 0, field, "binary data shorter than its header");
-    const std::string header = base64_decode(t.substr(0, header_chars), name_, field);
-    const std::string data = base64_decode(t.substr(header_chars), name_, field);
+    const std::string header = bytes_of(t.substr(0, header_chars));
+    const std::string data = bytes_of(t.substr(header_chars));
     const std::uint64_t block_size = header_value(header, 1, field), last = header_value(header, 2, field);
     std::string out;
     std::size_t at = 0;
@@ -156,13 +184,25 @@ class VtkArrays {
 };
 
 TriangleMesh parse_vtp(const std::string& content, const std::string& name) {
+  // Raw appended data is not XML (any byte may follow its '_'): it is cut off before parsing, and
+  // the document closed after the AppendedData tag.
+  std::string xml = content;
+  std::string_view appended;
+  if (const std::size_t tag = content.find("<AppendedData"); tag != std::string::npos) {
+    const std::size_t open_end = content.find('>', tag), underscore = content.find('_', open_end == std::string::npos ? tag : open_end);
+    if (open_end == std::string::npos || underscore == std::string::npos)
+      throw InputError(name, 0, "AppendedData", "no '_' marks the start of the appended data");
+    std::size_t close = content.rfind("</AppendedData>");
+    if (close == std::string::npos || close < underscore) close = content.size();
+    appended = std::string_view(content).substr(underscore + 1, close - underscore - 1);
+    xml = content.substr(0, open_end + 1) + "</AppendedData></VTKFile>";
+  }
   pugi::xml_document doc;
-  if (!doc.load_buffer(content.data(), content.size()))
+  if (!doc.load_buffer(xml.data(), xml.size()))
     throw InputError(name, 0, "VTKFile", "not an XML document");
   const auto file = doc.child("VTKFile");
   if (std::string(file.attribute("type").value()) != "PolyData") throw InputError(name, 0, "VTKFile", "expected type=\"PolyData\"");
-  if (file.child("AppendedData")) throw InputError(name, 0, "AppendedData", "appended data is not supported (write the file inline)");
-  const VtkArrays arrays(file, name);
+  const VtkArrays arrays(file, name, appended);
   TriangleMesh mesh;
   for (const auto& piece : file.child("PolyData").children("Piece")) {
     const auto base = static_cast<unsigned>(mesh.positions.size() / 3);
@@ -216,10 +256,20 @@ TriangleMesh parse_stl(const std::string& content, const std::string& name) {
       }
     return mesh;
   }
-  int line_no = 0;
+  int line_no = 0, facet_line = 0;  // facet_line: where the open facet began (0: none open)
+  std::size_t facet_vertices = 0;
   for (const auto& line : text::split_lines(content, name).lines) {
     ++line_no;
     const auto cells = text::split_ws(line);
+    if (!cells.empty() && cells[0] == "facet") {
+      if (facet_line) throw InputError(name, line_no, "facet", "a facet inside the facet of line " + std::to_string(facet_line));
+      facet_line = line_no;
+      facet_vertices = mesh.triangles.size();
+    }
+    if (!cells.empty() && cells[0] == "endfacet") {
+      if (!facet_line || mesh.triangles.size() - facet_vertices != 3) throw InputError(name, line_no, "facet", "a facet without three vertices");
+      facet_line = 0;
+    }
     if (cells.empty() || cells[0] != "vertex") continue;
     if (cells.size() != 4) throw InputError(name, line_no, "vertex", "expected three coordinates");
     for (int k = 1; k < 4; ++k) {
@@ -230,6 +280,7 @@ TriangleMesh parse_stl(const std::string& content, const std::string& name) {
     }
     mesh.triangles.push_back(static_cast<unsigned>(mesh.triangles.size()));
   }
+  if (facet_line) throw InputError(name, facet_line, "facet", "the facet has no endfacet");
   if (mesh.triangles.size() % 3) throw InputError(name, line_no, "facet", "a facet without three vertices");
   return mesh;
 }
@@ -275,6 +326,11 @@ TriangleMesh parse_mesh(const std::string& content, const std::string& name) {
   if (ext == "stl") return parse_stl(content, name);
   if (ext == "obj") return parse_obj(content, name);
   throw InputError(name, 0, "file", "mesh files are .vtp, .stl or .obj");
+}
+
+bool is_mesh_file_name(const std::string& name) {
+  const std::string ext = lower_extension(name);
+  return ext == "vtp" || ext == "stl" || ext == "obj";
 }
 
 TriangleMesh read_mesh_file(const std::string& path) { return parse_mesh(text::read_file(path), path); }

@@ -15,5 +15,6 @@ struct TriangleMesh {
 // Throws InputError naming the file and, where it can, the line or the element.
 TriangleMesh read_mesh_file(const std::string& path);
 TriangleMesh parse_mesh(const std::string& content, const std::string& name);  // the kind from the name's extension
+bool is_mesh_file_name(const std::string& name);  // .vtp, .stl or .obj, in any case
 
 }  // namespace cpgait::services

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <regex>
+#include <set>
 #include <thread>
 
 #include "cpgait/capture/input_error.h"
@@ -19,6 +20,7 @@
 #include "mesh_files.h"
 #include "report.h"
 #include "review_data.h"
+#include "zip_archive.h"
 
 // Last: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
 #include <httplib.h>
@@ -28,6 +30,13 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
+
+bool is_osim_file_name(const std::string& name) {
+  if (name.size() < 6) return false;
+  std::string ext = name.substr(name.size() - 5);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".osim";
+}
 
 httplib::Server* g_server = nullptr;
 void on_signal(int) {
@@ -190,39 +199,77 @@ class Api {
 
   void upload_model(const httplib::Request& req, httplib::Response& res) {
     if (!req.is_multipart_form_data() || !req.has_file("model"))
-      return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'model' part (the .osim)", "model");
+      return send_error(res, 400, "bad_request", "expected multipart/form-data with a 'model' part (the .osim, or a .zip of it and its Geometry folder)", "model");
     const auto part = req.get_file_value("model");
-    const std::string name = part.filename.empty() ? "model.osim" : part.filename;
+    std::string name = part.filename.empty() ? "model.osim" : part.filename;
     if (!is_safe_file_name(name)) return send_error(res, 400, "bad_file_name", "unsafe file name '" + name + "'", "model");
     // Written to <id>.tmp, validated there, then renamed into place: a rejected model leaves nothing.
     const std::string id = new_id();
     const fs::path tmp = fs::path(o_.data_dir) / "models" / (id + ".tmp"), dir = fs::path(o_.data_dir) / "models" / id;
     std::string part_name = "model";
     try {
+      // Mesh files for the 3-D view: `geometry` parts, and those of a zipped model (its Geometry folder).
+      struct MeshPart {
+        std::string file, label, content;  // label: where it came from, for messages
+      };
+      std::vector<MeshPart> meshes;
+      json notes = json::array();
+      std::string osim = part.content;
+      if (looks_like_zip(part.content)) {
+        ZipReadOptions zo;
+        zo.max_total_bytes = o_.max_upload_bytes;
+        std::vector<std::string> models, ignored;
+        const std::string zip_name = name;
+        for (ZipEntry& e : read_zip(part.content, zip_name, zo)) {
+          const std::string base = e.path.substr(e.path.rfind('/') + 1);  // npos + 1 == 0
+          if (is_osim_file_name(base)) {
+            models.push_back(e.path);
+            name = base;
+            osim = std::move(e.content);
+          } else if (is_mesh_file_name(base)) {
+            meshes.push_back({base, zip_name + ":" + e.path, std::move(e.content)});
+          } else {
+            ignored.push_back(e.path);
+          }
+        }
+        if (models.size() != 1)
+          throw InputError(zip_name, 0, "model", models.empty() ? "the archive holds no .osim model"
+                                                                : "the archive holds " + std::to_string(models.size()) + " .osim models (" +
+                                                                      models[0] + ", " + models[1] + "…): zip one model per upload");
+        if (!ignored.empty())
+          notes.push_back(zip_name + ": ignored " + std::to_string(ignored.size()) + " file(s) that are neither the model nor a mesh, e.g. " + ignored[0]);
+      }
+      const auto parts = req.files.equal_range("geometry");
+      for (auto it = parts.first; it != parts.second; ++it) meshes.push_back({it->second.filename, it->second.filename, it->second.content});
       ensure_directory(tmp.string());
-      write_text_atomic((tmp / "model.osim").string(), part.content);
+      write_text_atomic((tmp / "model.osim").string(), osim);
       OsimReadOptions ro;
       if (req.has_file("markerset")) {
         part_name = "markerset";
         write_text_atomic((tmp / "markerset.xml").string(), req.get_file_value("markerset").content);
         ro.marker_set_file = (tmp / "markerset.xml").string();
       }
-      // Mesh files for the 3-D view, as `geometry` parts: kept in the model's Geometry folder, each checked.
-      const auto meshes = req.files.equal_range("geometry");
-      for (auto it = meshes.first; it != meshes.second; ++it) {
-        part_name = "geometry";
-        const std::string mesh_name = it->second.filename;
-        if (!is_safe_file_name(mesh_name)) throw InputError(mesh_name, 0, "geometry", "unsafe or missing mesh file name");
-        parse_mesh(it->second.content, mesh_name);
+      // Each mesh is checked, then kept in the model's Geometry folder; the first of a name wins.
+      part_name = "geometry";
+      std::set<std::string> kept;
+      for (const MeshPart& mesh : meshes) {
+        if (!is_safe_file_name(mesh.file)) throw InputError(mesh.label, 0, "geometry", "unsafe or missing mesh file name");
+        parse_mesh(mesh.content, mesh.label);
+        if (!kept.insert(mesh.file).second) {
+          notes.push_back("two meshes named " + mesh.file + "; kept the first");
+          continue;
+        }
         ensure_directory((tmp / "Geometry").string());
-        write_text_atomic((tmp / "Geometry" / mesh_name).string(), it->second.content);
+        write_text_atomic((tmp / "Geometry" / mesh.file).string(), mesh.content);
       }
       part_name = "model";
-      const OsimReadResult r = parse_osim(part.content, name, ro);
-      const ModelRecord m{id, name, now_iso8601(), r.warnings,
+      const OsimReadResult r = parse_osim(osim, name, ro);
+      for (const auto& w : r.warnings) notes.push_back(w);
+      const ModelRecord m{id, name, now_iso8601(), notes,
                           {{"bodies", r.model.bodies.size() - 1}, {"coordinates", r.model.num_coordinates()},
                            {"markers", r.model.markers.size()}, {"muscles", r.model.muscles.size()},
-                           {"mass_kg", r.model.total_mass_kg()}, {"markerset", !ro.marker_set_file.empty()}}};
+                           {"mass_kg", r.model.total_mass_kg()}, {"markerset", !ro.marker_set_file.empty()},
+                           {"meshes", kept.size()}}};
       fs::rename(tmp, dir);
       store_.insert_model(m);
       send_json(res, 201, {{"id", id}, {"warnings", m.warnings}, {"summary", m.summary}});

@@ -324,6 +324,61 @@ TEST(ApiReference, ModelMeshesAreUploadedCheckedAndServed) {
   fs::remove_all(dir);
 }
 
+// A model zipped with its Geometry folder, as a lab keeps it (Info-ZIP, with a macOS resource fork
+// and a readme): the model and every mesh are taken from the archive; a second model, a broken mesh
+// or a broken archive is a 422 naming the part and the file, and stores nothing.
+TEST(ApiReference, ZippedModelWithItsGeometryFolder) {
+  const std::string pl = cpgait::refdata::gait2392("pipeline/");
+  const std::string geometry = cpgait::refdata::shared_path("opensim/Geometry");
+  REQUIRE_REFERENCE(pl + "OutputReference/subject01_simbody.osim");
+  REQUIRE_REFERENCE(geometry + "/femur_r.vtp");
+  if (std::system("command -v zip > /dev/null 2>&1") != 0) GTEST_SKIP() << "Info-ZIP's zip is absent (./install-deps.sh installs it)";
+  const std::string dir = cpgait::refdata::temp_dir("api_zip");
+  fs::create_directories(dir + "/lab/subject01/Geometry");
+  fs::copy_file(pl + "OutputReference/subject01_simbody.osim", dir + "/lab/subject01/subject01_simbody.osim");
+  int vtp = 0;
+  for (const auto& f : fs::directory_iterator(geometry))
+    if (f.path().extension() == ".vtp") fs::copy_file(f.path(), dir + "/lab/subject01/Geometry/" + f.path().filename().string()), ++vtp;
+  std::ofstream(dir + "/lab/subject01/README.txt") << "subject01, scaled\n";
+  std::ofstream(dir + "/lab/subject01/Geometry/._femur_r.vtp") << "AppleDouble";
+  auto zip = [&](const std::string& name, const std::string& what) {
+    EXPECT_EQ(std::system(("cd '" + dir + "/lab' && zip -q -r '" + dir + "/" + name + "' " + what).c_str()), 0);
+    return slurp(dir + "/" + name);
+  };
+  const std::string archive = zip("subject01.zip", "subject01");
+  ServerProcess server(dir + "/data");
+  httplib::Client c("127.0.0.1", server.port());
+  auto m = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", archive, "subject01.zip", "application/zip"}});
+  ASSERT_EQ(m->status, 201) << m->body;
+  const std::string model = body(m)["id"];
+  EXPECT_EQ(body(m)["summary"]["meshes"], vtp);
+  EXPECT_EQ(body(m)["summary"]["muscles"], 92);
+  EXPECT_NE(body(m)["warnings"].dump().find("README.txt"), std::string::npos) << body(m)["warnings"];
+  const json listed = body(c.Get("/api/v1/models"))["models"];
+  EXPECT_EQ(listed.back()["name"], "subject01_simbody.osim");
+  // Served from the model's own Geometry (this server has no --geometry folder).
+  const json femur = body(c.Get(("/api/v1/models/" + model + "/meshes/femur_r.vtp").c_str()));
+  EXPECT_EQ(femur["triangles"].size(), 3u * 908);
+
+  auto refused = [&](const std::string& bytes) {
+    auto r = c.Post("/api/v1/models", httplib::MultipartFormDataItems{{"model", bytes, "lab.zip", "application/zip"}});
+    EXPECT_EQ(r->status, 422) << r->body;
+    return body(r)["error"];
+  };
+  fs::copy_file(dir + "/lab/subject01/subject01_simbody.osim", dir + "/lab/subject01/copy.osim");
+  const json two = refused(zip("two.zip", "subject01"));
+  EXPECT_NE(two["message"].get<std::string>().find("2 .osim models"), std::string::npos) << two;
+  fs::remove(dir + "/lab/subject01/copy.osim");
+  std::ofstream(dir + "/lab/subject01/Geometry/broken.stl") << "solid x\nfacet normal 0 0 1\n";
+  const json broken = refused(zip("broken.zip", "subject01"));
+  EXPECT_EQ(broken["part"], "geometry");
+  EXPECT_NE(broken["message"].get<std::string>().find("lab.zip:subject01/Geometry/broken.stl"), std::string::npos) << broken;
+  std::string cut = archive.substr(0, archive.size() / 2);
+  EXPECT_EQ(refused(cut)["part"], "model");
+  EXPECT_EQ(body(c.Get("/api/v1/models"))["models"].size(), 2u);  // the walker and subject01 only
+  fs::remove_all(dir);
+}
+
 // subject01 walked on a treadmill (its pelvis stays within 2 cm over 3.5 s): the review finds the
 // belt from the stance feet. The same markers carried forward at u m/s move the belt estimate by
 // exactly u; carried at the belt's own speed they walk overground, and there is no belt.

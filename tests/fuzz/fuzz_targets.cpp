@@ -38,6 +38,8 @@
 #include "cpgait/video/camera.h"
 #include "cpgait/video/tag_set.h"
 #include "mesh_files.h"
+#include "zip_archive.h"
+#include "zip_writer.h"
 #include "pipeline.h"
 #include "server.h"
 
@@ -142,7 +144,7 @@ std::string multipart(const std::string& path, const std::vector<std::pair<std::
 const std::vector<std::string>& fuzz_target_names() {
   static const std::vector<std::string> names = {"trc",         "storage",     "c3d",           "osim",         "external_loads",
                                                  "ik_tasks_json", "scale_setup", "setup_xml",   "video_json",   "contact_set_json",
-                                                 "cpg_model_json", "pipeline_options", "upload", "mesh"};
+                                                 "cpg_model_json", "pipeline_options", "upload", "mesh", "zip"};
   return names;
 }
 
@@ -204,6 +206,10 @@ void fuzz_one(std::string_view target, std::string_view bytes) {
         } catch (const InputError&) {
         }
       }
+    } else if (target == "zip") {
+      services::ZipReadOptions o;
+      o.max_total_bytes = std::size_t{1} << 24;  // a bomb stops here rather than exhausting the fuzzer
+      services::read_zip(bytes, "fuzz.zip", o);
     } else {
       std::fprintf(stderr, "no fuzz target '%.*s'\n", static_cast<int>(target.size()), target.data());
       std::abort();
@@ -219,6 +225,10 @@ std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
   short_trial.duration_s = 0.2;
   const std::string short_trc = format_trc(fixtures::synthesize_trial(walker(), short_trial).markers, "mm");
   const std::string walker_osim = text::read_file(std::string(fixtures::fixtures_dir()) + "/models/walker.osim");
+  // A model zipped with a mesh (one deflated, one stored with a data descriptor) and a resource fork.
+  const std::string zipped_walker = write_zip({{"walker/walker.osim", walker_osim, true, false},
+                                               {"walker/Geometry/bone.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", false, true},
+                                               {"__MACOSX/walker/._walker.osim", "fork", false, false}});
   // The walker with the forces and wraps only the fuzzed reader's newer branches read.
   std::string walker_forces = walker_osim;
   walker_forces.insert(walker_forces.find("<objects>", walker_forces.find("<ForceSet")) + 9,
@@ -271,8 +281,15 @@ std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
         "format=\"ascii\">0 1 2</DataArray><DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">3</DataArray></Polys></Piece></PolyData></VTKFile>",
         "<VTKFile type=\"PolyData\" compressor=\"vtkZLibDataCompressor\"><PolyData><Piece><Points><DataArray type=\"Float32\" format=\"binary\">"
         "AQAAAACAAAAkAAAAEAAAAA==eJxjYGBgAGEMDAABAAE=</DataArray></Points></Piece></PolyData></VTKFile>",
+        // Raw appended data: a byte count of 36 and nine floats after the '_', NULs and all.
+        "<VTKFile type=\"PolyData\"><PolyData><Piece><Points><DataArray type=\"Float32\" format=\"appended\" offset=\"0\"/></Points>"
+        "</Piece></PolyData><AppendedData encoding=\"raw\">_" + std::string("\x24\0\0\0", 4) + std::string(12, '\0') +
+            std::string("\0\0\x80\x3f\0\0\0\0\0\0\0\0\0\0\0\0\0\0\x80\x3f\0\0\0\0", 24) + "</AppendedData></VTKFile>",
         "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n",
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1/1/1 2//1 3 -1\n"}},
+      {"zip",
+       {zipped_walker, write_zip({{"a\\b.txt", "stored", false, false}}, "comment"), write_zip({}),
+        write_zip({{"big.txt", std::string(100000, 'z'), true, false}})}},
       {"pipeline_options",
        {R"({"model": "walker", "stages": ["ik", "id"], "time_range": [0.1, 1.2], "ik": {"accuracy": 1e-5}})", "[]", "{\"stages\": 3}"}},
       {"upload",
@@ -283,6 +300,7 @@ std::map<std::string, std::vector<std::string>> fuzz_made_inputs() {
                                      {"options", {"options.json", R"({"model": "walker"})"}}}),
         multipart("/api/v1/models", {{"model", {"walker.osim", walker_osim}}}),
         multipart("/api/v1/models", {{"model", {"walker.osim", walker_osim}}, {"geometry", {"bone.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}}}),
+        multipart("/api/v1/models", {{"model", {"walker.zip", zipped_walker}}}),
         "/api/v1/trials\n--cpgaitfuzz--\r\n"}}};
 }
 

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <cmath>
 #include <cstring>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/model/osim_writer.h"
 #include "cpgait/scaling/scale_model.h"
@@ -57,15 +59,46 @@ std::string raw_binary(const std::string& bytes) {
   return base64(std::string(reinterpret_cast<const char*>(&n), 4) + bytes);
 }
 
-// VTK's zlib layout: a header of block count, block size, last block size, compressed sizes, in its
-// own base64, then the compressed blocks in base64.
-std::string zlib_binary(const std::string& bytes) {
+// VTK's zlib layout: a header of block count, block size, last block size, compressed sizes, then
+// the compressed blocks.
+std::pair<std::string, std::string> zlib_parts(const std::string& bytes) {
   uLongf size = compressBound(static_cast<uLong>(bytes.size()));
   std::string packed(size, '\0');
   compress2(reinterpret_cast<Bytef*>(packed.data()), &size, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uLong>(bytes.size()), 9);
   packed.resize(size);
   const std::uint32_t header[4] = {1, static_cast<std::uint32_t>(bytes.size()), static_cast<std::uint32_t>(bytes.size()), static_cast<std::uint32_t>(size)};
-  return base64(std::string(reinterpret_cast<const char*>(header), sizeof header)) + base64(packed);
+  return {std::string(reinterpret_cast<const char*>(header), sizeof header), packed};
+}
+// Inline or base64-appended, each part in its own base64.
+std::string zlib_binary(const std::string& bytes) {
+  const auto [header, packed] = zlib_parts(bytes);
+  return base64(header) + base64(packed);
+}
+std::string zlib_raw(const std::string& bytes) {
+  const auto [header, packed] = zlib_parts(bytes);
+  return header + packed;
+}
+std::string count_raw(const std::string& bytes) {
+  const std::uint32_t n = static_cast<std::uint32_t>(bytes.size());
+  return std::string(reinterpret_cast<const char*>(&n), 4) + bytes;
+}
+
+// The same file with its arrays in AppendedData (encoding raw or base64): chunk(bytes) is each
+// array's encoded header and data, placed at its offset after the '_'.
+std::string vtp_appended(const std::string& compressor, const std::function<std::string(const std::string&)>& chunk, const char* encoding) {
+  std::string data;
+  auto array = [&](const char* type, const char* name, int components, const std::string& bytes) {
+    const std::string a = std::string("<DataArray type=\"") + type + "\" Name=\"" + name + "\" NumberOfComponents=\"" + std::to_string(components) +
+                          "\" format=\"appended\" offset=\"" + std::to_string(data.size()) + "\"/>";
+    data += chunk(bytes);
+    return a;
+  };
+  std::string head = "<?xml version=\"1.0\"?><VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\"" +
+                     (compressor.empty() ? std::string() : " compressor=\"" + compressor + "\"") + "><PolyData><Piece NumberOfPoints=\"5\" NumberOfPolys=\"2\"><Points>";
+  head += array("Float32", "Points", 3, bytes_of(kPoints)) + "</Points><Polys>";
+  head += array("Int32", "connectivity", 1, bytes_of(kConnectivity));
+  head += array("Int32", "offsets", 1, bytes_of(kOffsets));
+  return head + "</Polys></Piece></PolyData>\n  <AppendedData encoding=\"" + encoding + "\">\n   _" + data + "\n  </AppendedData>\n</VTKFile>\n";
 }
 
 }  // namespace
@@ -90,9 +123,42 @@ TEST(MeshFiles, AsciiBinaryAndCompressedVtpReadTheSame) {
   EXPECT_EQ(ascii.positions, kPoints);
   // The square fans into two triangles, then the triangle.
   EXPECT_EQ(ascii.triangles, (std::vector<unsigned>{0, 1, 2, 0, 2, 3, 0, 1, 4}));
-  for (const TriangleMesh* m : {&binary, &zipped}) {
+  // Appended: raw bytes (NULs and all, not XML) or base64, compressed or not.
+  const TriangleMesh raw = parse_mesh(vtp_appended("", count_raw, "raw"), "d.vtp");
+  const TriangleMesh raw_zipped = parse_mesh(vtp_appended("vtkZLibDataCompressor", zlib_raw, "raw"), "e.vtp");
+  const TriangleMesh text = parse_mesh(vtp_appended("", raw_binary, "base64"), "f.vtp");
+  const TriangleMesh text_zipped = parse_mesh(vtp_appended("vtkZLibDataCompressor", zlib_binary, "base64"), "g.vtp");
+  for (const TriangleMesh* m : {&binary, &zipped, &raw, &raw_zipped, &text, &text_zipped}) {
     EXPECT_EQ(m->positions, ascii.positions);
     EXPECT_EQ(m->triangles, ascii.triangles);
+  }
+}
+
+// OpenSim's own pendulum meshes keep their arrays zlib-compressed in base64 AppendedData, with Int64
+// cells. VTK wrote each array's range of magnitudes: the points read must fall inside it.
+TEST(MeshFiles, OpenSimsAppendedDataVtpFiles) {
+  for (const char* file : {"pendulum.vtp", "ConePendulum.vtp"}) {
+    const std::string path = cpgait::refdata::shared_path(std::string("opensim/opensim-core-tests/Analyze/") + file);
+    REQUIRE_REFERENCE(path);
+    const std::string content = cpgait::text::read_file(path);
+    const TriangleMesh m = cpgait::services::read_mesh_file(path);
+    auto attribute = [&](const std::string& key, std::size_t from) {
+      const std::size_t at = content.find(key + "=\"", from) + key.size() + 2;
+      return std::stod(content.substr(at, content.find('"', at) - at));
+    };
+    const std::size_t points_at = content.find("<Points>");
+    const double lo = attribute("RangeMin", points_at), hi = attribute("RangeMax", points_at);
+    const auto n = static_cast<std::size_t>(attribute("NumberOfPoints", 0));
+    ASSERT_EQ(m.positions.size(), 3 * n) << file;
+    double shortest = 1e9, longest = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double r = std::hypot(m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]);
+      shortest = std::min(shortest, r), longest = std::max(longest, r);
+    }
+    EXPECT_NEAR(shortest, lo, 1e-6) << file;
+    EXPECT_NEAR(longest, hi, 1e-6) << file;
+    EXPECT_GE(m.triangles.size(), 3 * static_cast<std::size_t>(attribute("NumberOfPolys", 0))) << file;
+    for (const unsigned i : m.triangles) ASSERT_LT(i, n) << file;
   }
 }
 
@@ -136,6 +202,10 @@ TEST(MeshFiles, BadFilesAreRefusedNamingWhere) {
   refused("<VTKFile type=\"UnstructuredGrid\"/>", "grid.vtp", "PolyData");
   refused(std::string(84, '\0').replace(80, 1, "\x05"), "short.stl", "shorter");
   refused("solid x", "model.3ds", ".vtp, .stl or .obj");
+  // ASCII STL cut off inside a facet, or a facet of two vertices.
+  refused("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n", "cut.stl", "cut.stl:2: facet: the facet has no endfacet");
+  refused("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid x\n", "two.stl",
+          "two.stl:7: facet: a facet without three vertices");
 }
 
 TEST(OsimMeshes, BodiesKeepTheirMeshesAndScaleThemWithTheBody) {
