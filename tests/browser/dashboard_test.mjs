@@ -120,9 +120,15 @@ try {
 let trialId;
   await check('upload a trial and watch it complete', async () => {
     if (model) {
-      await page.setInputFiles('#osim', model);
+      // subject01's model zipped with gait2392's Geometry folder, as a lab keeps it.
+      mkdirSync(path.join(work, 'lab/Geometry'), { recursive: true });
+      execFileSync('cp', [model, path.join(work, 'lab')]);
+      execFileSync('sh', ['-c', `cp ${geometry}/*.vtp ${path.join(work, 'lab/Geometry')} && cd ${path.join(work, 'lab')} && zip -q -r ../subject01.zip .`]);
+      await page.setInputFiles('#osim', path.join(work, 'subject01.zip'));
       await page.click('#model-upload button[type=submit]');
       await page.waitForFunction(() => document.querySelectorAll('#model option').length >= 2);
+      const models = (await (await page.request.get(`${base}/api/v1/models`)).json()).models;
+      assert.equal(models.find((m) => m.name === path.basename(model)).summary.meshes, 20);  // gait2392's .vtp files, from the zip
       const values = await page.locator('#model option').evaluateAll((o) => o.map((x) => x.value));
       await page.selectOption('#model', values.find((v) => v !== 'walker'));
     }

@@ -245,8 +245,9 @@ async function uploadView() {
     h('div', { class: 'form-error', id: 'form-error' }),
     h('button', { type: 'submit' }, 'Upload and run'));
   const modelUpload = h('form', { id: 'model-upload' },
-    row('Model (.osim)', h('input', { type: 'file', id: 'osim', accept: '.osim', required: true }), 'model-file'),
+    row('Model (.osim, or a .zip of it and its Geometry folder)', h('input', { type: 'file', id: 'osim', accept: '.osim,.zip', required: true }), 'model-file'),
     row('Marker set (.xml)', h('input', { type: 'file', id: 'markerset', accept: '.xml' }), 'markerset'),
+    row('Bone meshes (.vtp, .stl, .obj)', h('input', { type: 'file', id: 'geometry', accept: '.vtp,.stl,.obj', multiple: true }), 'geometry'),
     h('button', { type: 'submit', class: 'secondary' }, 'Add model'));
   app.replaceChildren(h('h1', {}, 'Upload a trial'), h('div', { class: 'card' }, form), h('h2', {}, 'Add a model'), h('div', { class: 'card' }, modelUpload));
 
@@ -290,7 +291,8 @@ async function uploadView() {
     const f = modelUpload.querySelector('#osim').files[0], m = modelUpload.querySelector('#markerset').files[0];
     if (f) fd.append('model', f, f.name);
     if (m) fd.append('markerset', m, m.name);
-    try { await api('/models', { method: 'POST', body: fd }); route(); } catch (err) { showError(modelUpload, err, (d) => (d.part === 'markerset' ? 'markerset' : 'model-file')); }
+    for (const g of modelUpload.querySelector('#geometry').files) fd.append('geometry', g, g.name);
+    try { await api('/models', { method: 'POST', body: fd }); route(); } catch (err) { showError(modelUpload, err, (d) => (d.part === 'markerset' || d.part === 'geometry' ? d.part : 'model-file')); }
   });
 }
 
