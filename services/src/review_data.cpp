@@ -25,6 +25,17 @@ using nlohmann::json;
 namespace {
 double round6(double v) { return std::round(v * 1e6) / 1e6; }  // micrometres: enough to draw, half the bytes
 double round4(double v) { return std::round(v * 1e4) / 1e4; }  // 0.1 mm: muscles are drawn 10 mm thick
+
+// A treadmill: the belt's velocity as the simulations estimate it (the stance foot's), or null
+// overground and for models without feet they know.
+json treadmill_json(const Model& model, const std::vector<double>& time_s, const Eigen::MatrixXd& q_rows) {
+  ContactSet feet = default_foot_contacts(model);
+  if (feet.spheres.empty()) return nullptr;
+  place_ground_under_feet(model, feet, time_s, q_rows);
+  const Eigen::Vector3d& v = feet.ground_velocity_m_s;
+  if (v.norm() == 0) return nullptr;
+  return {{"belt_velocity_m_s", {round6(v.x()), round6(v.y()), round6(v.z())}}, {"height_m", round6(feet.ground_height_m)}};
+}
 }  // namespace
 
 json trial_kinematics_json(const std::string& model_path, const std::string& marker_set_path, const std::string& ik_mot_path,
@@ -96,14 +107,7 @@ json trial_kinematics_json(const std::string& model_path, const std::string& mar
     for (int c = 0; c < model.num_coordinates(); ++c)
       if (columns[c] >= 0) q_rows(r, c) = ik.data(r, columns[c]) * (degrees && model.coordinates[c].is_angle() ? M_PI / 180.0 : 1.0);
   }
-  // A treadmill: the belt's velocity as the simulations estimate it (the stance foot's), or null
-  // overground and for models without feet they know.
-  json treadmill = nullptr;
-  if (ContactSet feet = default_foot_contacts(model); !feet.spheres.empty()) {
-    place_ground_under_feet(model, feet, std::vector<double>(ik.time().data(), ik.time().data() + ik.num_rows()), q_rows);
-    const Eigen::Vector3d& v = feet.ground_velocity_m_s;
-    if (v.norm() > 0) treadmill = {{"belt_velocity_m_s", {round6(v.x()), round6(v.y()), round6(v.z())}}, {"height_m", round6(feet.ground_height_m)}};
-  }
+  const json treadmill = treadmill_json(model, std::vector<double>(ik.time().data(), ik.time().data() + ik.num_rows()), q_rows);
   json frames = json::array();
   int trial_frame = 0;
   for (int r = 0; r < ik.num_rows(); ++r) {
