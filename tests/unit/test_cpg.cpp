@@ -5,6 +5,7 @@
 #include "cpgait/activation/static_optimization.h"
 #include "cpgait/capture/input_error.h"
 #include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/cpg/cpg_phase.h"
 #include "cpgait/cpg/matsuoka.h"
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/model/osim_reader.h"
@@ -220,4 +221,51 @@ TEST(CpgFit, PatternNeuronsShapeNarrowBurstsAtAnyPhase) {
   // JSON keeps the two-layer network.
   const CpgModel back = CpgModel::from_json(b.model.to_json(), "model.json");
   EXPECT_LT((run_cpg(back, 1.0, dt).excitations - run_cpg(b.model, 1.0, dt).excitations).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// The controller's clock: the seed's pair (s 5, Tr 1, Ta 10, b 2.5, a 1.5) as the rhythm, with a
+// pattern neuron it excites. Running freely at speed 1 or 1.3, the phase read from the state
+// advances as time x speed / cycle; the pattern neuron's state does not move it.
+TEST(CpgPhase, ReadFromTheRhythmNeuronsAtAnySpeed) {
+  const MatsuokaNetwork pair = MatsuokaNetwork::pair(5.0, 1.0, 10.0, 2.5, 1.5, 1.5);
+  CpgModel m;
+  m.network.tau_r_s = Eigen::Vector3d(1.0, 1.0, 1.0);
+  m.network.tau_a_s = Eigen::Vector3d(10.0, 10.0, 3.0);
+  m.network.b = Eigen::Vector3d(2.5, 2.5, 1.0);
+  m.network.s = Eigen::Vector3d(5.0, 5.0, 0.5);
+  m.network.a = Eigen::Matrix3d::Zero();
+  m.network.a.topLeftCorner(2, 2) = pair.a;
+  m.network.a(2, 0) = -0.8;  // negative: neuron 0 excites the pattern neuron
+  m.output_map = Eigen::MatrixXd::Zero(1, 3);
+  m.output_bias = Eigen::VectorXd::Zero(1);
+  // Settle, then measure the period: the model's cycle.
+  const double dt = 0.01;
+  MatsuokaState st = MatsuokaState::resting(m.network);
+  const Eigen::MatrixXd y = simulate_matsuoka(m.network, st, dt, 20000);
+  m.cycle_s = oscillation_period(y.col(0), dt, 10000);
+  ASSERT_GT(m.cycle_s, 5.0);
+  m.start = st;
+  m.phase_at_start = 0.3;
+  EXPECT_EQ(cpg_rhythm_neurons(m.network), 2);
+
+  const CpgPhaseTable table = cpg_phase_table(m);
+  EXPECT_NEAR(cpg_phase(table, m.start), 0.3, 1e-9);
+  double worst = 0;
+  for (const double speed : {1.0, 1.3}) {
+    m.speed = speed;
+    const MatsuokaNetwork n = network_at_speed(m);
+    MatsuokaState s = m.start;
+    MatsuokaScratch scratch;
+    for (int k = 1; k <= 1700; ++k) {
+      matsuoka_step(n, s, dt, Eigen::VectorXd(), scratch);
+      const double expected = 0.3 + k * dt * speed / m.cycle_s;
+      const double error = std::remainder(cpg_phase(table, s) - expected, 1.0);
+      worst = std::max(worst, std::abs(error));
+    }
+    MatsuokaState kicked = s;
+    kicked.x[2] += 5.0;
+    EXPECT_EQ(cpg_phase(table, kicked), cpg_phase(table, s));
+  }
+  std::printf("[info] phase error over 1.7 cycles at speeds 1 and 1.3: %.2e of a cycle\n", worst);
+  EXPECT_LT(worst, 2e-3);
 }

@@ -12,6 +12,7 @@ namespace {
 struct GaitStageOptions {
   std::optional<double> duration_s;
   bool residuals = true;
+  bool phase_reference = false;
 
   static const OptionFields<GaitStageOptions>& fields() {
     static const OptionFields<GaitStageOptions> f =
@@ -20,7 +21,9 @@ struct GaitStageOptions {
             .optional_number("duration_s", &GaitStageOptions::duration_s, "s",
                              "simulated time; absent: two gait cycles, or what the trial has", NumberRange{0.0, 30.0, true})
             .boolean("residuals", &GaitStageOptions::residuals,
-                     "pelvis residual actuators hold the rotations and soft springs the translations; false: the model walks on its own");
+                     "pelvis residual actuators hold the rotations and soft springs the translations; false: the model walks on its own")
+            .boolean("phase_reference", &GaitStageOptions::phase_reference,
+                     "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time");
     return f;
   }
 };
@@ -62,6 +65,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.start_time_s = start;
     go.duration_s = o.duration_s ? *o.duration_s : std::min(2 * cycle_s, available);
     go.pelvis_residuals = o.residuals;
+    go.phase_indexed_reference = o.phase_reference;
     // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
     const ReproducedGaitResult g = reproduce_gait(model, cpg->model, reference, feet, go, trial.progress);

@@ -1,11 +1,14 @@
 #include "cpgait/gait/reproduced_gait.h"
 
+#include "cpgait/cpg/cpg_phase.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/cpg/cpg_phase.h"
 #include "cpgait/cpg/matsuoka.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
@@ -106,6 +109,40 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       root = j.coordinates;
       break;
     }
+  // The phase-indexed reference: the cycles after the heel strike averaged at 100 phases.
+  constexpr int kPhases = 100;
+  std::vector<Eigen::VectorXd> template_q, template_u, template_a;
+  CpgPhaseTable phase_table;
+  if (o.phase_indexed_reference) {
+    const int cycles = static_cast<int>(std::floor((ref_end - o.start_time_s) / cpg_in.cycle_s + 1e-9));
+    if (o.start_time_s < ref.time_s.front() || cycles < 1)
+      throw InputError(reference.name, 0, "start_time", "a phase-indexed reference needs a full gait cycle of the reference after the heel strike");
+    Eigen::VectorXd q(nq), u(nq), a(nq);
+    for (int j = 0; j < kPhases; ++j) {
+      template_q.push_back(Eigen::VectorXd::Zero(nq));
+      template_u.push_back(Eigen::VectorXd::Zero(nq));
+      template_a.push_back(Eigen::VectorXd::Zero(nq));
+      for (int k = 0; k < cycles; ++k) {
+        trajectories_at(ref, o.start_time_s + (k + static_cast<double>(j) / kPhases) * cpg_in.cycle_s, q, u, a);
+        template_q.back() += q / cycles, template_u.back() += u / cycles, template_a.back() += a / cycles;
+      }
+    }
+    phase_table = cpg_phase_table(cpg_in);
+  }
+  // The template at a phase (linear between samples, round the cycle), rates in simulated time; the
+  // pelvis translations keep the time-indexed reference's.
+  auto template_at = [&](double phase, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) {
+    const double pos = phase * kPhases;
+    const int i = static_cast<int>(std::floor(pos)) % kPhases, j = (i + 1) % kPhases;
+    const double w = pos - std::floor(pos);
+    for (int c = 0; c < nq; ++c) {
+      if (std::find(root.begin(), root.end(), c) != root.end() && !model.coordinates[c].is_angle()) continue;
+      // An angle that wraps between samples would interpolate through the long way; gait's do not.
+      q[c] = (1 - w) * template_q[i][c] + w * template_q[j][c];
+      u[c] = o.speed * ((1 - w) * template_u[i][c] + w * template_u[j][c]);
+      a[c] = o.speed * o.speed * ((1 - w) * template_a[i][c] + w * template_a[j][c]);
+    }
+  };
   for (int c : root) r.residual_names.push_back(model.coordinates[c].name + (model.coordinates[c].is_angle() ? "_moment" : "_force"));
 
   MuscleDrivenSystem sys;
@@ -220,6 +257,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     const double t = k * dt;
     const double tau = tau0 + std::min(t, tracked_until) * o.speed;
     reference_at(tau, q_ref, u_ref, a_ref);
+    if (o.phase_indexed_reference) template_at(cpg_phase(phase_table, neurons), q_ref, u_ref, a_ref);
     // Forces at the current state without residuals: contact, muscles, geometry for the reflexes.
     tau_root.setZero();
     f(t, x, xdot);  // the passive joints' torques included

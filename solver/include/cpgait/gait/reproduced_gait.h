@@ -70,6 +70,11 @@ struct ReproducedGaitOptions {
   // Thelen2003Muscle) suits a CPG fitted to CMC's excitations.
   bool compliant_tendons = false;
   double fall_height_fraction = 0.75;          // pelvis height below this share of its start: fallen
+  // The reflexes' targets (and the pelvis rotations', and the tracking figures'): the trial's cycle
+  // average at the CPG's phase, read from its rhythm neurons (cpg_phase.h), instead of the trial at
+  // the simulation's time, so that the speed knob and entrainment move them with the CPG. The pelvis
+  // translations keep the trial's. Needs a full cycle of reference after start_time_s. Default off.
+  bool phase_indexed_reference = false;
 };
 
 struct ReproducedGaitResult {
