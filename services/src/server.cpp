@@ -723,7 +723,6 @@ std::string without_brotli(const std::string& accept_encoding) {
   return kept;
 }
 
-
 // The service without its socket: the store, the job runner (not started) and an httplib server
 // with the API installed. serve() listens with it; InProcessServer feeds it requests directly.
 class HttpServer : public httplib::Server {

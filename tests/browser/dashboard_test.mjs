@@ -425,6 +425,11 @@ let trialId;
       assert.ok(r.segments > 92);
       // Playback keeps the trial's time whatever the frame rate: 3 s of wall clock play about 3 s.
       assert.ok(Math.abs(r.advanced - r.wall) < 0.5, `played ${r.advanced} s of the trial in ${r.wall} s`);
+      // The page shows the rate it reached (for a look on the user's own machine): the same as measured here.
+      const shown = await page.evaluate(() => ({ text: document.querySelector('#frame-rate').textContent, rate: window.__cpgait.frameRate }));
+      assert.match(shown.text, /^\d+ frames\/s, [\d.]+ ms of page work each$/);
+      const measured = 1000 / r.intervalMedian;
+      assert.ok(shown.rate.fps > measured / 2 && shown.rate.fps < measured * 2, `shown ${shown.rate.fps} frames/s, measured ${measured}`);
     });
   }
 

@@ -363,10 +363,12 @@ async function trialView(id) {
   const play = h('button', { id: 'play' }, 'Play');
   const speedSel = h('select', { id: 'speed' }, [0.25, 0.5, 1, 2].map((s) => h('option', { value: s, selected: s === 1 }, `${s}×`)));
   const clock = h('span', { class: 'muted', id: 'clock' });
+  // While playing: the frame rate the browser reaches and the page's own work per frame.
+  const rate = h('span', { class: 'muted', id: 'frame-rate', title: 'frames drawn per second while playing, and the time the page spends posing and drawing each' });
   const legend = h('div', { class: 'legend muted' }, h('span', {}, h('i', { style: 'background:#60a5fa' }), 'model markers'), h('span', {}, h('i', { style: 'background:#fb923c' }), 'measured markers'),
     h('span', {}, h('i', { style: 'background:#facc15' }), 'centres of mass'), kin.frames[0].grf.length ? h('span', {}, h('i', { style: 'background:#22c55e' }), 'ground reaction force (1 mm/N)') : null,
     kin.treadmill ? h('span', { id: 'belt-legend' }, h('i', { style: 'background:#94a3b8' }), `treadmill belt, ${fmt(Math.hypot(...kin.treadmill.belt_velocity_m_s), 2)} m/s (from the stance feet)`) : null);
-  app.append(h('div', { class: 'card' }, viewerBox, h('div', { class: 'controls' }, play, slider, speedSel, clock), legend,
+  app.append(h('div', { class: 'card' }, viewerBox, h('div', { class: 'controls' }, play, slider, speedSel, clock, rate), legend,
     h('div', { class: 'muted' }, 'Keys: space plays/pauses, ←/→ step one frame.')));
   const viewer = new Viewer(viewerBox, kin);
   window.__cpgait.viewer = viewer;
@@ -615,16 +617,27 @@ async function trialView(id) {
   const toggle = () => { playing = !playing; play.textContent = playing ? 'Pause' : 'Play'; last = null; };
   play.addEventListener('click', toggle);
   let tPlay = time[0];
+  const perf = { frames: 0, work: 0, since: null };
   const tick = (now) => {
     if (playing) {
       if (last != null) {
         tPlay += (speed * (now - last)) / 1000;
         if (tPlay > time[n - 1]) tPlay = time[0];
         let i = frame; while (i + 1 < n && time[i + 1] <= tPlay) ++i; if (time[i] > tPlay) i = 0; while (i + 1 < n && time[i + 1] <= tPlay) ++i;
+        const t0 = performance.now();
         if (i !== frame) show(i);
+        perf.work += performance.now() - t0;
+        perf.frames++;
+        if (perf.since == null) perf.since = now;
+        if (now - perf.since >= 1000) {
+          const fps = (1000 * perf.frames) / (now - perf.since);
+          rate.textContent = `${fps.toFixed(0)} frames/s, ${(perf.work / perf.frames).toFixed(1)} ms of page work each`;
+          window.__cpgait.frameRate = { fps, workMs: perf.work / perf.frames };
+          perf.frames = 0; perf.work = 0; perf.since = now;
+        }
       }
       last = now;
-    } else tPlay = time[frame];
+    } else { tPlay = time[frame]; perf.frames = 0; perf.work = 0; perf.since = null; }
     raf = requestAnimationFrame(tick);
   };
   let raf = requestAnimationFrame(tick);
