@@ -1,5 +1,7 @@
 #include "cpgait/capture/text_lines.h"
 
+#include <cctype>
+
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -78,6 +80,17 @@ std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
   return s;
+}
+
+std::string lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+std::string lower_extension(std::string_view name) {
+  const auto dot = name.rfind('.');
+  return dot == std::string_view::npos ? std::string() : lower(name.substr(dot + 1));
 }
 
 bool parse_double(std::string_view cell, double& out) {

@@ -14,12 +14,6 @@
 namespace cpgait {
 namespace {
 
-std::string lower(std::string_view s) {
-  std::string out(s);
-  std::transform(out.begin(), out.end(), out.begin(), [](unsigned char c) { return std::tolower(c); });
-  return out;
-}
-
 // Splits a TRC line: tab separated when it holds a tab (blank cells are meaningful), otherwise on
 // spaces (some writers use them; such files cannot hold blank cells).
 std::vector<std::string_view> split_trc(std::string_view line) {
@@ -29,7 +23,7 @@ std::vector<std::string_view> split_trc(std::string_view line) {
 }  // namespace
 
 double metres_per_unit(std::string_view units) {
-  const std::string u = lower(text::trim(units));
+  const std::string u = text::lower(text::trim(units));
   if (u == "mm") return 1e-3;
   if (u == "cm") return 1e-2;
   if (u == "m") return 1.0;
@@ -77,7 +71,7 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
     return InputError(name, line_index + 1, field, msg);
   };
   if (L.empty()) throw fail(0, "", "file is empty: expected a TRC header ('PathFileType ...')");
-  if (text::split_ws(L[0]).empty() || lower(text::split_ws(L[0])[0]) != "pathfiletype")
+  if (text::split_ws(L[0]).empty() || text::lower(text::split_ws(L[0])[0]) != "pathfiletype")
     throw fail(0, "PathFileType", "expected a TRC file starting with 'PathFileType'");
   if (L.size() < 5)
     throw fail(static_cast<int>(L.size()) - 1, "",
@@ -98,7 +92,7 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   }
   std::map<std::string, std::string> header;
   for (std::size_t i = 0; i < keys.size(); ++i) {
-    const std::string key = lower(text::trim(keys[i]));
+    const std::string key = text::lower(text::trim(keys[i]));
     if (key.empty()) continue;
     if (i >= values.size())
       throw fail(2, std::string(text::trim(keys[i])), "no value under this header key");
@@ -134,7 +128,7 @@ MarkerTrial parse_trc(std::string_view content, const std::string& name,
   } catch (const std::invalid_argument& e) {
     throw fail(2, "Units", e.what());
   }
-  trial.units_in_file = lower(units_it->second);
+  trial.units_in_file = text::lower(units_it->second);
 
   // Line 4: Frame#, Time, then marker names (each followed by two blank cells when tab separated).
   const auto name_cells = split_trc(L[3]);

@@ -16,13 +16,6 @@
 namespace cpgait::services {
 namespace {
 
-std::string lower_extension(const std::string& name) {
-  const auto dot = name.rfind('.');
-  std::string ext = dot == std::string::npos ? "" : name.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
-}
-
 std::string base64_decode(std::string_view in, const std::string& name, const std::string& field) {
   static const auto table = [] {
     std::array<int, 256> t{};
@@ -321,7 +314,7 @@ TriangleMesh parse_obj(const std::string& content, const std::string& name) {
 }  // namespace
 
 TriangleMesh parse_mesh(const std::string& content, const std::string& name) {
-  const std::string ext = lower_extension(name);
+  const std::string ext = text::lower_extension(name);
   if (ext == "vtp") return parse_vtp(content, name);
   if (ext == "stl") return parse_stl(content, name);
   if (ext == "obj") return parse_obj(content, name);
@@ -329,7 +322,7 @@ TriangleMesh parse_mesh(const std::string& content, const std::string& name) {
 }
 
 bool is_mesh_file_name(const std::string& name) {
-  const std::string ext = lower_extension(name);
+  const std::string ext = text::lower_extension(name);
   return ext == "vtp" || ext == "stl" || ext == "obj";
 }
 

@@ -31,13 +31,6 @@ using nlohmann::json;
 
 namespace {
 
-bool is_osim_file_name(const std::string& name) {
-  if (name.size() < 6) return false;
-  std::string ext = name.substr(name.size() - 5);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".osim";
-}
-
 httplib::Server* g_server = nullptr;
 void on_signal(int) {
   if (g_server) g_server->stop();
@@ -222,7 +215,7 @@ class Api {
         const std::string zip_name = name;
         for (ZipEntry& e : read_zip(part.content, zip_name, zo)) {
           const std::string base = e.path.substr(e.path.rfind('/') + 1);  // npos + 1 == 0
-          if (is_osim_file_name(base)) {
+          if (text::lower_extension(base) == "osim") {
             models.push_back(e.path);
             name = base;
             osim = std::move(e.content);

@@ -401,7 +401,12 @@ async function trialView(id) {
   if (so && kin.muscle_names) {
     const act = so.tables[0], actTime = act.columns[0];
     const columns = kin.muscle_names.map((m) => column(act, m) || null);
-    const rowOf = kin.frames.map((f) => { let best = 0; actTime.forEach((t, r) => { if (Math.abs(t - f.time) < Math.abs(actTime[best] - f.time)) best = r; }); return best; });
+    // Both in time order: one pass, each frame's nearest row from the last one's.
+    let row = 0;
+    const rowOf = kin.frames.map((f) => {
+      while (row + 1 < actTime.length && Math.abs(actTime[row + 1] - f.time) < Math.abs(actTime[row] - f.time)) row++;
+      return row;
+    });
     viewer.setActivation((frameIndex, i) => (columns[i] ? columns[i][rowOf[frameIndex]] : 0));
   }
 

@@ -213,7 +213,11 @@ export class Viewer {
     lines.geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(kin2.bodies.length * 6), 3));
     this.scene.add(lines);
     const names = kin2.bodies.map((b) => b.name), parent = kin2.bodies.map((b) => names.indexOf(b.parent));
-    const frameAt = this.kin.frames.map((f) => kin2.frames.findIndex((g) => Math.abs(g.time - f.time) < 1e-6));
+    let j = 0;  // both in time order: one pass
+    const frameAt = this.kin.frames.map((f) => {
+      while (j < kin2.frames.length && kin2.frames[j].time < f.time - 1e-6) j++;
+      return j < kin2.frames.length && Math.abs(kin2.frames[j].time - f.time) < 1e-6 ? j : -1;
+    });
     this.overlay = { kin: kin2, label, groups, lines, parent, frameAt, visible: true };
     if (this.frameIndex != null) this.show(this.frameIndex);
   }

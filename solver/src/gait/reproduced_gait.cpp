@@ -1,7 +1,5 @@
 #include "cpgait/gait/reproduced_gait.h"
 
-#include "cpgait/cpg/cpg_phase.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -131,12 +129,14 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   }
   // The template at a phase (linear between samples, round the cycle), rates in simulated time; the
   // pelvis translations keep the time-indexed reference's.
+  std::vector<char> root_translation(static_cast<std::size_t>(nq), 0);
+  for (int c : root) root_translation[static_cast<std::size_t>(c)] = !model.coordinates[c].is_angle();
   auto template_at = [&](double phase, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) {
     const double pos = phase * kPhases;
     const int i = static_cast<int>(std::floor(pos)) % kPhases, j = (i + 1) % kPhases;
     const double w = pos - std::floor(pos);
     for (int c = 0; c < nq; ++c) {
-      if (std::find(root.begin(), root.end(), c) != root.end() && !model.coordinates[c].is_angle()) continue;
+      if (root_translation[static_cast<std::size_t>(c)]) continue;
       // An angle that wraps between samples would interpolate through the long way; gait's do not.
       q[c] = (1 - w) * template_q[i][c] + w * template_q[j][c];
       u[c] = o.speed * ((1 - w) * template_u[i][c] + w * template_u[j][c]);

@@ -69,13 +69,15 @@ Model scale_model(const Model& generic, const std::vector<Eigen::Vector3d>& fact
   if (factors.size() != generic.bodies.size()) throw std::invalid_argument("scale_model: one factor triple per body is needed");
   Model m = generic;
   auto f = [&](int body) { return factors[static_cast<std::size_t>(body)]; };
-  for (std::size_t b = 1; b < m.bodies.size(); ++b) m.bodies[b].com_m = m.bodies[b].com_m.cwiseProduct(f(static_cast<int>(b)));
-  // Display meshes grow with their bodies, as OpenSim's Frame::scaleAttachedGeometry.
-  for (std::size_t b = 1; b < m.bodies.size(); ++b)
+  for (std::size_t b = 1; b < m.bodies.size(); ++b) {
+    const Eigen::Vector3d s = f(static_cast<int>(b));
+    m.bodies[b].com_m = m.bodies[b].com_m.cwiseProduct(s);
+    // Display meshes grow with their bodies, as OpenSim's Frame::scaleAttachedGeometry.
     for (auto& mesh : m.bodies[b].meshes) {
-      mesh.scale = mesh.scale.cwiseProduct(f(static_cast<int>(b)));
-      mesh.pose.translation_m = mesh.pose.translation_m.cwiseProduct(f(static_cast<int>(b)));
+      mesh.scale = mesh.scale.cwiseProduct(s);
+      mesh.pose.translation_m = mesh.pose.translation_m.cwiseProduct(s);
     }
+  }
   for (auto& j : m.joints) {
     j.parent_offset.translation_m = j.parent_offset.translation_m.cwiseProduct(f(j.parent_body));
     j.child_offset.translation_m = j.child_offset.translation_m.cwiseProduct(f(j.child_body));

@@ -26,6 +26,10 @@ std::vector<std::string_view> split_tabs(std::string_view line);
 // Splits on any run of spaces or tabs (no empty cells).
 std::vector<std::string_view> split_ws(std::string_view line);
 std::string_view trim(std::string_view s);
+// ASCII lower case (header keys, units, file extensions).
+std::string lower(std::string_view s);
+// A file name's extension after its last dot, lower case ("Femur.VTP" -> "vtp"; "" without a dot).
+std::string lower_extension(std::string_view name);
 
 // Parses a whole cell as a double ("nan" accepted); false if anything else is in the cell.
 bool parse_double(std::string_view cell, double& out);
