@@ -33,11 +33,23 @@ Lines split_lines(std::string_view content, const std::string& name) {
 std::string read_file(const std::string& path, std::size_t max_bytes) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "", "cannot open file");
+  auto too_big = [&](std::size_t size) {
+    return InputError(path, 0, "", "file is " + std::to_string(size) + " bytes, over the limit of " + std::to_string(max_bytes));
+  };
   in.seekg(0, std::ios::end);
-  const auto size = static_cast<std::size_t>(in.tellg());
-  if (size > max_bytes)
-    throw InputError(path, 0, "", "file is " + std::to_string(size) + " bytes, over the limit of " +
-                                      std::to_string(max_bytes));
+  const std::streamoff end = in.tellg();
+  if (end < 0) {  // a pipe (`--options <(...)`): no size to ask, read up to the limit
+    in.clear();
+    std::string content;
+    char chunk[65536];
+    while (in.read(chunk, sizeof chunk) || in.gcount() > 0) {
+      content.append(chunk, static_cast<std::size_t>(in.gcount()));
+      if (content.size() > max_bytes) throw too_big(content.size());
+    }
+    return content;
+  }
+  const auto size = static_cast<std::size_t>(end);
+  if (size > max_bytes) throw too_big(size);
   in.seekg(0);
   std::string content(size, '\0');
   in.read(content.data(), static_cast<std::streamsize>(size));

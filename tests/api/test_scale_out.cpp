@@ -186,12 +186,13 @@ TEST(ScaleOut, KilledWorkersAndServerLoseNoTrialAndRewriteNoResult) {
       ASSERT_LT(std::chrono::steady_clock::now(), wait_until) << name << " never held a trial";
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // into the trial's stages
-    snapshot_finished();
+    // Killed as soon as it holds one: a trial takes about half a second (the CPG fit went from seconds
+    // to under one), so waiting into its stages could outlast it.
     workers[index]->stop(SIGKILL);
     const auto killed = std::chrono::steady_clock::now();
     const auto orphans = db->query(held);  // what the dead worker held when it died
     ASSERT_EQ(orphans.size(), 1u) << name << " was between trials when killed";
+    snapshot_finished();
     const std::string id = *orphans[0][0];
     logs.push_back(workers[index]->log());
     workers[index] = worker(replacement);

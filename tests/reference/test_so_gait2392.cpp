@@ -300,7 +300,10 @@ TEST(CpgGait2392, FitsSubject01Activations) {
   }
   std::printf("[ info ] running the fitted CPG: period %.5f s (gait cycle %.5f s)\n", oscillation_period(run.neurons.col(0), dt, 0), cycle_s);
   std::printf("[ info ] running the fitted CPG: largest difference from the fitted patterns %.4f (4th cycle)\n", largest);
-  EXPECT_LT(largest, 0.02);  // measured 0.0111
+  // Measured 0.0060. The network runs on its attractor and the pattern neurons are fitted at steps as
+  // fine as the run's; before, a rhythm whose pairs' relative phase was still drifting when sampled
+  // (fitted after six periods) made this 0.62 on subject01's activations as the pipeline computes them.
+  EXPECT_LT(largest, 0.01);
   EXPECT_NEAR(oscillation_period(run.neurons.col(0), dt, 0), cycle_s, 0.005 * cycle_s);  // measured 1.23403 s against 1.23405 s
 }
 

@@ -11,7 +11,10 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
+#include <sys/stat.h>
+#include <thread>
 #include "c3d_writer.h"
+#include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/marker_file.h"
 #include "cpgait/capture/trc.h"
@@ -63,6 +66,35 @@ TEST(Cli, BadInputExitsWithFileLineAndField) {
   const CliRun t = run("run-tool " + cpgait::refdata::fixture("models/walker.osim"));
   EXPECT_EQ(t.status, 2);
   EXPECT_NE(t.output.find("not supported"), std::string::npos) << t.output;
+  fs::remove_all(dir);
+}
+
+// Options or files given through a pipe (`--options <(echo ...)`, a FIFO) have no size to ask for:
+// they are read to their end, and refused past the limit like a file, not as a file of 2^64 bytes.
+TEST(Cli, FilesThroughAPipeAreRead) {
+  const std::string dir = cpgait::refdata::temp_dir("cli_pipe");
+  const std::string fifo = dir + "/options.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string text = std::string("{\"stages\": [\"ik\"]}\n") + std::string(100000, ' ');
+  auto write_once = [&] {
+    std::ofstream out(fifo, std::ios::binary);
+    out << text;
+  };
+  std::thread writer(write_once);
+  EXPECT_EQ(cpgait::text::read_file(fifo), text);
+  writer.join();
+  // Over the limit: 3000 bytes fit the pipe's buffer, so the writer is done before the reader gives up.
+  std::thread again([&] {
+    std::ofstream out(fifo, std::ios::binary);
+    out << text.substr(0, 3000);
+  });
+  try {
+    cpgait::text::read_file(fifo, 1000);
+    ADD_FAILURE() << "a pipe over the limit was read";
+  } catch (const cpgait::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("over the limit of 1000"), std::string::npos) << e.what();
+  }
+  again.join();
   fs::remove_all(dir);
 }
 

@@ -217,7 +217,8 @@ TEST(CpgFit, PatternNeuronsShapeNarrowBurstsAtAnyPhase) {
     const int step = static_cast<int>(std::lround((2 * 1.1 + k * 1.1 / S) / dt)) - 1;
     largest = std::max(largest, (run.excitations.row(step) - b.fitted.row(k).cwiseMax(0.0).cwiseMin(1.0)).cwiseAbs().maxCoeff());
   }
-  EXPECT_LT(largest, 0.02);
+  std::printf("[ info ] narrow bursts: running the fitted CPG, largest difference from the fit %.4f\n", largest);
+  EXPECT_LT(largest, 0.01);
   // JSON keeps the two-layer network.
   const CpgModel back = CpgModel::from_json(b.model.to_json(), "model.json");
   EXPECT_LT((run_cpg(back, 1.0, dt).excitations - run_cpg(b.model, 1.0, dt).excitations).cwiseAbs().maxCoeff(), 1e-12);

@@ -21,7 +21,7 @@ struct CpgStageOptions {
             "Fitted to the cycle-averaged SO activations (or CMC excitations) over one foot's gait cycles: heel strikes from the GRF's first "
             "vertical force (ground_force_vy), else from kinematics (Zeni 2008).")
             .integer("pairs", &CpgStageOptions::pairs, 1, 6, "rhythm oscillator pairs")
-            .integer("pattern_units", &CpgStageOptions::pattern_units, 0, 2, "pattern-layer neurons per rhythm neuron")
+            .integer("pattern_units", &CpgStageOptions::pattern_units, 0, 2, "pattern-layer neurons per active muscle (0: muscles read the rhythm layer)")
             .text("foot", &CpgStageOptions::foot,
                   "the body whose heel strikes delimit the cycles (kinematic detection); absent: calcn_r, else foot_r");
     return f;

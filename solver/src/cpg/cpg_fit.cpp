@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -57,13 +58,13 @@ struct LimitCycle {
 struct FixedNetwork4 {
   using V = Eigen::Vector4d;
   Eigen::Matrix4d a;
-  V s, b, tau_r, tau_a;
-  explicit FixedNetwork4(const MatsuokaNetwork& n) : a(n.a), s(n.s), b(n.b), tau_r(n.tau_r_s), tau_a(n.tau_a_s) {}
-  void rates(const V& x, const V& f, V& dx, V& df) const {
+  V s, b, inv_tau_r, inv_tau_a;
+  explicit FixedNetwork4(const MatsuokaNetwork& n)
+      : a(n.a), s(n.s), b(n.b), inv_tau_r(n.tau_r_s.cwiseInverse()), inv_tau_a(n.tau_a_s.cwiseInverse()) {}
+  [[gnu::always_inline]] void rates(const V& x, const V& f, V& dx, V& df) const {
     const V y = x.cwiseMax(0.0);
-    const V ay = a * y;
-    dx = (s - x - b.cwiseProduct(f) - ay).cwiseQuotient(tau_r);
-    df = (y - f).cwiseQuotient(tau_a);
+    dx = (s - x - b.cwiseProduct(f) - a * y).cwiseProduct(inv_tau_r);
+    df = (y - f).cwiseProduct(inv_tau_a);
   }
   void step(V& x, V& f, double dt) const {
     V k1x, k1f, k2x, k2f, k3x, k3f, k4x, k4f;
@@ -76,12 +77,14 @@ struct FixedNetwork4 {
   }
 };
 
-bool limit_cycle(const MatsuokaNetwork& n, LimitCycle& out) {
+// transient_periods: estimated periods simulated from rest before sampling; tolerance: how far
+// (relative to the outputs' range) the whole state may be from where it was one period earlier.
+bool limit_cycle(const MatsuokaNetwork& n, LimitCycle& out, double transient_periods = 6, double tolerance = 1e-2) {
   const double w = matsuoka_natural_frequency(1.0, n.tau_a_s[0], n.b[0], std::max(n.a(0, 1), 1e-3));
   const double T_est = w > 0 ? 2 * M_PI / w : 10 * n.tau_a_s[0];
   const double dt = std::min(T_est / 200.0, 0.05);
   MatsuokaState st = MatsuokaState::resting(n);
-  const int transient = static_cast<int>(std::min(6.0 * T_est / dt, 20000.0));
+  const int transient = static_cast<int>(std::min(transient_periods * T_est / dt, transient_periods > 10 ? 2e5 : 2e4));
   const int steps = static_cast<int>(std::min(3.5 * T_est / dt, 20000.0));
   Eigen::MatrixXd xs(n.size(), steps), fs(n.size(), steps);  // states by column: no allocation per step
   Eigen::MatrixXd y(steps, n.size());
@@ -116,6 +119,16 @@ bool limit_cycle(const MatsuokaNetwork& n, LimitCycle& out) {
   const double start = up[up.size() - 3], period_steps = up[up.size() - 2] - start;
   const double p2 = up[up.size() - 1] - up[up.size() - 2];
   if (std::abs(p2 - period_steps) > 0.02 * period_steps) return false;  // not settled (or not periodic)
+  // The whole state must come back after a period, not only neuron 0's crossing: pairs whose relative
+  // phase still drifts (slow transients, quasi-periodic motion) run away from their fit in the CPG.
+  auto state_at = [&](double pos) {
+    const int i = std::min(static_cast<int>(pos), steps - 2);
+    const double a = pos - i;
+    Eigen::VectorXd z(2 * n.size());
+    z << (1 - a) * xs.col(i) + a * xs.col(i + 1), (1 - a) * fs.col(i) + a * fs.col(i + 1);
+    return z;
+  };
+  if ((state_at(start + period_steps) - state_at(start)).cwiseAbs().maxCoeff() > tolerance * (y.maxCoeff() - y.minCoeff())) return false;
   out.period = period_steps * dt;
   out.outputs.resize(kFinePhases, n.size());
   out.states.resize(kFinePhases);
@@ -166,19 +179,53 @@ Eigen::MatrixXd best_map(const Eigen::MatrixXd& Y, const Eigen::MatrixXd& target
   return design * weights;
 }
 
-struct PatternResidual {
-  Layout layout;
-  const Eigen::MatrixXd* target;
-  bool operator()(double const* const* p, double* residuals) const {
-    Eigen::Map<Eigen::MatrixXd> r(residuals, target->rows(), target->cols());
-    LimitCycle c;
-    if (!limit_cycle(network_from(layout, p[0]), c)) {
-      r = *target;  // no oscillation: nothing explained
-      return true;
-    }
-    r = *target - best_map(at_phases(c, static_cast<int>(target->rows()), p[0][layout.phase()]), *target, nullptr, nullptr);
+// The rhythm layer's residual: target - the best map of the network's outputs at the pattern's phase.
+// It goes through a simulation and a period detection, so its Jacobian is by forward differences with
+// a relative step of 1e-4, which keeps them above the discretisation noise (Ceres' default 1e-6 does
+// not); the columns are split over `threads` threads, each simulation being independent.
+class RhythmResidual : public ceres::CostFunction {
+ public:
+  RhythmResidual(const Layout& L, const Eigen::MatrixXd& target, int threads) : L_(L), target_(target), threads_(std::max(1, threads)) {
+    set_num_residuals(static_cast<int>(target.size()));
+    mutable_parameter_block_sizes()->push_back(L.size);
+  }
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    residual(p[0], residuals);
+    if (!jacobians || !jacobians[0]) return true;
+    const int n = L_.size, m = num_residuals();
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], m, n);
+    const Eigen::Map<const Eigen::VectorXd> r0(residuals, m);
+    auto columns = [&](int first) {
+      std::vector<double> q(p[0], p[0] + n);
+      Eigen::VectorXd r(m);
+      for (int i = first; i < n; i += threads_) {
+        const double h = q[i] != 0 ? 1e-4 * std::abs(q[i]) : 1e-4;
+        q[i] += h;
+        residual(q.data(), r.data());
+        q[i] = p[0][i];
+        J.col(i) = (r - r0) / h;
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads_; ++t) pool.emplace_back(columns, t);
+    columns(0);
+    for (auto& t : pool) t.join();
     return true;
   }
+
+ private:
+  void residual(const double* p, double* residuals) const {
+    Eigen::Map<Eigen::MatrixXd> r(residuals, target_.rows(), target_.cols());
+    LimitCycle c;
+    if (!limit_cycle(network_from(L_, p), c)) {
+      r = target_;  // no oscillation: nothing explained
+      return;
+    }
+    r = target_ - best_map(at_phases(c, static_cast<int>(target_.rows()), p[L_.phase()]), target_, nullptr, nullptr);
+  }
+  Layout L_;
+  const Eigen::MatrixXd& target_;
+  int threads_;
 };
 
 void set_bounds(ceres::Problem& problem, double* p, const Layout& L) {
@@ -186,7 +233,7 @@ void set_bounds(ceres::Problem& problem, double* p, const Layout& L) {
     problem.SetParameterLowerBound(p, i, lo);
     problem.SetParameterUpperBound(p, i, hi);
   };
-  bound(0, 1.5, 40.0);  // Ta / Tr
+  bound(0, 1.5, 20.0);  // Ta / Tr: longer adaptation only slows the network down (Tr scales it to the cycle)
   bound(1, 0.3, 10.0);  // b
   bound(2, 0.3, 6.0);   // a within a pair
   for (int i = 0; i < L.neurons; ++i) bound(3 + i, 0.2, 10.0);
@@ -200,7 +247,7 @@ void add_pattern_layer(const LimitCycle& c, double phase, const Eigen::MatrixXd&
                        CpgModel& m, Eigen::MatrixXd& fitted) {
   if (o.pattern_units < 1 || o.pattern_units > 2) throw std::invalid_argument("fit_cpg: pattern_units must be 0, 1 or 2");
   const int S = static_cast<int>(target.rows()), M = static_cast<int>(target.cols()), R = m.network.size(), U = o.pattern_units;
-  const Eigen::MatrixXd rhythm = at_phases(c, S, phase);  // aligned: row 0 is the target's phase 0
+  const Eigen::MatrixXd rhythm = at_phases(c, 4 * S, phase);  // aligned: row 0 is the target's phase 0
   std::vector<int> active;
   for (int k = 0; k < M; ++k)
     if (target.col(k).maxCoeff() > o.active_threshold) active.push_back(k);
@@ -256,7 +303,6 @@ void add_pattern_layer(const LimitCycle& c, double phase, const Eigen::MatrixXd&
       n.b[first + u] = p.b[u];
       n.s[first + u] = p.s[u];
       n.a.row(first + u).head(R) = p.c.row(u);
-      if (U == 2) n.a(first + u, first + 1 - u) = p.mutual;
       start.x[first + u] = p.x0[u];
       start.f[first + u] = p.f0[u];
       m.output_map(active[i], first + u) = p.weights[u];
@@ -335,35 +381,38 @@ CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::v
   std::mt19937 rng(o.seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   std::vector<double> best;
-  double best_cost = std::numeric_limits<double>::infinity();
   CpgFitResult result;
   // Starting points first (deterministic for a seed), then the starts run on all cores.
   std::vector<std::vector<double>> starts(o.starts, std::vector<double>(L.size));
   for (int start = 0; start < o.starts; ++start) {
     auto& p = starts[start];
-    // Start 0: Matsuoka's classic pair (Ta/Tr 10, b 2.5, a 1.5, s 5) with weak couplings; the
-    // others random within the bounds.
+    // Start 0: Matsuoka's classic pairs (Ta/Tr 10, b 2.5, a 1.5, s 5) in a ring, each pair's neurons
+    // weakly inhibiting the next pair's (the last pair's the first's, crossed): it settles within a
+    // period or two with the pairs' phases evenly spread (quadrature for two pairs), where uniform
+    // weak couplings between all pairs take some 25 periods to get there. The others random.
     const bool classic = start == 0;
     p[0] = classic ? 10.0 : 3.0 + 17.0 * u(rng);
     p[1] = classic ? 2.5 : 1.0 + 4.0 * u(rng);
     p[2] = classic ? 1.5 : 0.8 + 2.0 * u(rng);
     for (int i = 0; i < L.neurons; ++i) p[3 + i] = classic ? 5.0 : 1.0 + 6.0 * u(rng);
-    for (int i = 0; i < L.n_cross; ++i) p[3 + L.neurons + i] = classic ? 0.3 : 1.5 * u(rng);
+    int k = 3 + L.neurons;
+    for (int i = 0; i < L.neurons; ++i)
+      for (int j = 0; j < L.neurons; ++j) {
+        if (i / 2 == j / 2) continue;
+        const int pair = i / 2, from = j / 2;
+        const bool ring = pair > 0 ? from == pair - 1 && j % 2 == i % 2 : from == L.pairs - 1 && j % 2 != i % 2;
+        p[k++] = classic ? (ring ? 0.3 : 0.0) : 1.5 * u(rng);
+      }
     p[L.phase()] = static_cast<double>(start % 4) / 4.0;
   }
+  const std::vector<double> ring_start = starts[0];  // the fallback should optimisation leave no periodic network
   std::vector<double> costs(o.starts, std::numeric_limits<double>::infinity());
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int jacobian_threads = std::max(1, cores / o.starts);  // cores the starts leave idle
   auto solve = [&](int start) {
     auto& p = starts[start];
     ceres::Problem problem;
-    // The residual goes through a simulation and a period detection: a relative step of 1e-4 keeps
-    // the differences above their discretisation noise (Ceres' default 1e-6 does not).
-    ceres::NumericDiffOptions nd;
-    nd.relative_step_size = 1e-4;
-    auto* cost = new ceres::DynamicNumericDiffCostFunction<PatternResidual, ceres::CENTRAL>(new PatternResidual{L, &target},
-                                                                                            ceres::TAKE_OWNERSHIP, nd);
-    cost->AddParameterBlock(L.size);
-    cost->SetNumResiduals(static_cast<int>(target.size()));
-    problem.AddResidualBlock(cost, nullptr, p.data());
+    problem.AddResidualBlock(new RhythmResidual(L, target, jacobian_threads), nullptr, p.data());
     set_bounds(problem, p.data(), L);
     ceres::Solver::Options so;
     so.max_num_iterations = o.max_iterations;
@@ -376,7 +425,7 @@ CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::v
     costs[start] = summary.final_cost;
   };
   {
-    const int threads = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(), static_cast<unsigned>(o.starts)));
+    const int threads = std::min(cores, o.starts);
     std::atomic<int> next{0};
     std::vector<std::thread> pool;
     for (int t = 0; t < threads; ++t)
@@ -386,12 +435,22 @@ CpgFitResult fit_cpg(const Eigen::MatrixXd& target, double cycle_s, const std::v
     for (auto& t : pool) t.join();
   }
   result.summary.rhythm_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
-  for (int start = 0; start < o.starts; ++start)
-    if (costs[start] < best_cost) best_cost = costs[start], best = starts[start], result.summary.best_start = start;
-  // The model: network in seconds (period = cycle), exact map, state at the cycle's start.
+  // The model: network in seconds (period = cycle), exact map, state at the cycle's start. The fit saw
+  // each network after a few periods; the CPG runs on its attractor, which slow modes (the pairs'
+  // relative phase) reach later: so the best start whose network settles on a periodic attractor
+  // within a long run, sampled there.
+  std::vector<int> order(static_cast<std::size_t>(o.starts));
+  for (int k = 0; k < o.starts; ++k) order[static_cast<std::size_t>(k)] = k;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return costs[a] < costs[b]; });
   LimitCycle c;
+  for (int start : order)
+    if (std::isfinite(costs[start]) && limit_cycle(network_from(L, starts[start].data()), c, 300.0, 1e-3)) {
+      best = starts[start], result.summary.best_start = start;
+      break;
+    }
+  if (best.empty() && limit_cycle(network_from(L, ring_start.data()), c, 300.0, 1e-3)) best = ring_start, result.summary.best_start = 0;
+  if (best.empty()) throw std::runtime_error("fit_cpg: no network settled on a periodic oscillation");
   const MatsuokaNetwork unit = network_from(L, best.data());
-  if (!limit_cycle(unit, c)) throw std::runtime_error("fit_cpg: no oscillating network found");
   CpgModel& m = result.model;
   const double scale = cycle_s / c.period;
   m.network = unit;

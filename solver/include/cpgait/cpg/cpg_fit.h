@@ -3,7 +3,7 @@
 //
 // Two layers of Matsuoka neurons. The rhythm layer is K mutually inhibiting pairs with inhibitory
 // couplings between pairs: it sets the cycle. The pattern layer gives every active muscle its own few
-// neurons (a mutually inhibiting pair by default), driven by the rhythm neurons through signed
+// neurons (two by default, not coupled to each other), driven by the rhythm neurons through signed
 // couplings (a negative a_ij excites); their rectified outputs, with adaptation, shape bursts at any
 // phase and width, which the rhythm neurons' broad half-waves alone cannot. Each muscle's excitation
 // is a non-negative combination of its pattern neurons (or, without a pattern layer, of the rhythm
@@ -43,11 +43,10 @@ struct CpgModel {
 
 struct CpgFitOptions {
   int pairs = 2;               // rhythm-layer oscillator pairs (2 K neurons)
-  // Rhythm-layer starts (the first is Matsuoka's classic pair) and Ceres iterations per start. With
-  // a pattern layer the rhythm only has to oscillate with phases the pattern neurons can use, so a
-  // short search suffices (measured on subject01: 8 starts x 100 iterations gain no R^2 over 2 x 30);
-  // without one (pattern_units = 0) use more, e.g. 8 x 100.
-  int starts = 2;
+  // Rhythm-layer starts (the first: Matsuoka's classic pairs in a ring; the others random) and Ceres
+  // iterations per start. Cores the starts leave idle share each start's differences; random starts
+  // rarely did better than the ring.
+  int starts = 1;
   int max_iterations = 30;
   int phase_samples = 100;     // samples per cycle of the target patterns
   double active_threshold = 0.05;  // muscles whose peak exceeds this count in the mean R^2
