@@ -268,13 +268,29 @@ IkResult inverse_kinematics(const Model& model, const MarkerTrial& trial, const 
     const int f = frames[i];
     if (coordinate_reference) reference_row = reference_row_at(model, *coordinate_reference, targets, trial.time_s[f]);
     cost.set_frame(&trial, f, coordinate_reference ? &reference_row : nullptr);
-    // Warm start: extrapolate linearly from the two previous solutions (smooth motion), within bounds.
+    // Warm start: extrapolate from the previous solutions (smooth motion), within bounds: linearly
+    // from two, or quadratically from three where that predicted the last frame better. Densely
+    // sampled, the quadratic guess saves iterations; across frames far apart (the scale fit's ten
+    // from a walk) it overshoots into other minima.
     if (i >= 2) {
+      bool quadratic = false;
+      if (i >= 4) {
+        double linear_miss = 0, quadratic_miss = 0;
+        for (int c : free) {
+          const double last = result.q(i - 1, c), a = result.q(i - 2, c), b = result.q(i - 3, c), d = result.q(i - 4, c);
+          linear_miss += std::pow(2.0 * a - b - last, 2);
+          quadratic_miss += std::pow(3.0 * (a - b) + d - last, 2);
+        }
+        quadratic = quadratic_miss < linear_miss;
+      }
       for (std::size_t k = 0; k < free.size(); ++k) {
         const bool seen = coordinate_task[k] || std::any_of(markers_seeing[k].begin(), markers_seeing[k].end(), [&](int m) {
                             return !std::isnan(trial.position_m(f, targets.markers[static_cast<std::size_t>(m)].trial_marker)[0]);
                           });
-        double guess = seen ? 2.0 * result.q(i - 1, free[k]) - result.q(i - 2, free[k]) : result.q(i - 1, free[k]);
+        const int c = free[k];
+        const double guess = !seen      ? result.q(i - 1, c)
+                             : quadratic ? 3.0 * (result.q(i - 1, c) - result.q(i - 2, c)) + result.q(i - 3, c)
+                                         : 2.0 * result.q(i - 1, c) - result.q(i - 2, c);
         x[k] = std::clamp(guess, lo[k], hi[k]);
       }
     }

@@ -46,14 +46,24 @@ LevenbergMarquardtSummary levenberg_marquardt(const ResidualFunction& f, int m, 
       }
     Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(w.A);
     w.d = llt.solve(w.rhs);
-    ++s.iterations;
     w.x_new = (x + w.d).cwiseMax(lo).cwiseMin(hi);
     w.step = w.x_new - x;
+    // The model's decrease for the step (projected): -(g.s + s.H.s / 2). Where even that is below the
+    // function tolerance and the step is nearly Gauss-Newton's (the trust region no smaller than at
+    // the start), this is the last step: taken if it does not raise the cost, its Jacobian never
+    // needed. A shrunk region makes the prediction small for another reason.
+    const double predicted = -(w.g.dot(w.step) + 0.5 * w.step.dot(w.H.selfadjointView<Eigen::Lower>() * w.step));
+    ++s.iterations;
+    if (radius >= o.initial_radius && predicted >= 0 && predicted <= o.function_tolerance * cost) {
+      f(w.x_new.data(), w.r_new.data(), nullptr);
+      const double last_cost = 0.5 * w.r_new.squaredNorm();
+      if (last_cost <= cost) x = w.x_new, cost = last_cost;
+      s.converged = true;
+      break;
+    }
     // The candidate's Jacobian too: most steps are accepted, and it is then the next iteration's.
     f(w.x_new.data(), w.r_new.data(), w.J_new.data());
     const double new_cost = 0.5 * w.r_new.squaredNorm();
-    // The model's decrease for the step taken (projected): -(g.s + s.H.s / 2).
-    const double predicted = -(w.g.dot(w.step) + 0.5 * w.step.dot(w.H.selfadjointView<Eigen::Lower>() * w.step));
     const double actual = cost - new_cost;
     const bool step_small = w.step.norm() <= (x.norm() + o.parameter_tolerance) * o.parameter_tolerance;
     if (predicted > 0 && actual / predicted > 1e-3) {

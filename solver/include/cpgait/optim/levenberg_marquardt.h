@@ -12,14 +12,14 @@ namespace cpgait {
 
 struct LevenbergMarquardtOptions {
   int max_iterations = 200;
-  double function_tolerance = 1e-9;    // converged when a step changes the cost by less than this fraction
+  double function_tolerance = 1e-9;    // converged when a step changes (or the model predicts the next to change) the cost by less than this fraction
   double gradient_tolerance = 1e-14;   // ... or the projected gradient's max-norm is below this
   double parameter_tolerance = 1e-10;  // ... or a step is shorter than this times (|x| + this)
   double initial_radius = 1e4;         // trust region (Ceres' default); 1/radius weighs diag(J^T J)
 };
 
 struct LevenbergMarquardtSummary {
-  int iterations = 0;  // linear solves whose steps were tried
+  int iterations = 0;  // steps tried (each a residual and Jacobian evaluation)
   bool converged = false;
   double initial_cost = 0, final_cost = 0;  // (1/2) |r|^2
 };
