@@ -11,6 +11,7 @@
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/gait/reproduced_gait.h"
+#include "cpgait/gait/tune_gait_controller.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
 #include "output_files.h"
@@ -149,6 +150,8 @@ struct GaitArgs {
   double start = -1;
   ReproducedGaitOptions options;
   bool no_residuals = false, no_foot_fit = false;
+  GaitTuningOptions tuning;
+  int tune = 0;
 };
 
 void run_gait(const GaitArgs& g) {
@@ -187,9 +190,24 @@ void run_gait(const GaitArgs& g) {
                 contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.y(), contacts.ground_velocity_m_s.z(),
                 contacts.ground_velocity_m_s.norm() > 0 ? " (a treadmill)" : "");
   }
-  const ReproducedGaitResult r = reproduce_gait(model, cpg, kin, contacts, o);
-  print_warnings(r.warnings);
   if (!fs::path(g.out).parent_path().empty()) ensure_directory(fs::path(g.out).parent_path().string());
+  CpgModel driving = cpg;
+  if (g.tune > 0) {
+    GaitTuningOptions to = g.tuning;
+    to.evaluations = g.tune;
+    const GaitTuningResult tuned = tune_gait_controller(model, cpg, kin, contacts, o, to);
+    driving = tuned.cpg;
+    write_text_atomic(g.out + "_cpg_tuned.json", json_text(driving.to_json(), 2) + "\n");
+    std::printf("%s\nwrote %s_cpg_tuned.json (reflex %.1f / %.2f, amplitude %.3f)\n", tuned.summary.BriefReport().c_str(), g.out.c_str(),
+                driving.controller->reflex_kp, driving.controller->reflex_kv, driving.amplitude);
+  }
+  if (driving.controller) {
+    o = with_cpg_controller(driving, o);
+    std::printf("controller from the CPG: reflex %.1f / %.2f, %s, %s residuals\n", o.reflex_kp, o.reflex_kv,
+                o.phase_indexed_reference ? "reference by phase" : "reference by time", o.pelvis_residuals ? "with" : "without");
+  }
+  const ReproducedGaitResult r = reproduce_gait(model, driving, kin, contacts, o);
+  print_warnings(r.warnings);
   write_storage_atomic(reproduced_gait_motion_table(model, r), g.out + "_gait.mot");
   write_storage_atomic(reproduced_gait_residual_table(r), g.out + "_gait_residuals.sto");
   write_storage_atomic(reproduced_gait_contact_table(r), g.out + "_gait_contact_forces.sto");
@@ -221,6 +239,11 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--speed", g->options.speed, "CPG speed knob (the reference is time-scaled alike)")->check(CLI::Range(0.2, 5.0))->capture_default_str();
   gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
   gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
+  gait->add_option("--tune", g->tune,
+                   "first tune the controller to walk without residuals: CMA-ES over the reflex gains and the CPG's amplitude, this many "
+                   "simulations on every core; writes PREFIX_cpg_tuned.json, which --cpg then replays")
+      ->check(CLI::Range(0, 5000));
+  gait->add_option("--tune-horizon", g->tuning.horizon_s, "simulated time per tuning candidate, s")->check(CLI::Range(0.5, 30.0))->capture_default_str();
   gait->add_option("--reflex-kp", g->options.reflex_kp, "joint-angle reflex gain, excitation per (m x rad)")->capture_default_str();
   gait->add_option("--reflex-kv", g->options.reflex_kv, "joint-speed reflex gain, excitation per (m x rad/s)")->capture_default_str();
   gait->add_option("--tolerance", g->options.integrator_tolerance, "integrator error tolerance (relative and absolute)")

@@ -280,7 +280,8 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
     written_doc.erase(later);
   }
   // Fields added to a section since: their defaults.
-  for (const auto& [section, field] : {std::pair<const char*, const char*>{"gait", "phase_reference"}}) {
+  for (const auto& [section, field] : {std::pair<const char*, const char*>{"gait", "phase_reference"}, {"gait", "tune_evaluations"},
+                                       {"gait", "tune_horizon_s"}}) {
     EXPECT_EQ(written_doc[section][field], PipelineOptions().to_json()[section][field]) << section << "." << field;
     written_doc[section].erase(field);
   }

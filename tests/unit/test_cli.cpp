@@ -331,6 +331,32 @@ TEST(Cli, CpgFitThenRun) {
   fs::remove_all(dir);
 }
 
+// The gait stage's tuning (issue 22) through the pipeline: the tuned CPG, its controller in the JSON,
+// is written beside the gait, whose summary reports the tuning and walks without residuals; `cpgait
+// gait` replays the tuned CPG's controller. (The walker's synthetic trial is no gait to tune well:
+// this checks the plumbing; subject01's tuning is checked in test_so_gait2392.cpp.)
+TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
+  const std::string dir = cpgait::refdata::temp_dir("cli_tune");
+  const std::string model = cpgait::refdata::fixture("models/walker.osim");
+  ASSERT_EQ(run("synth --model " + model + " --duration 4 -o " + dir + "/w.trc").status, 0);
+  std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0}})";
+  const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json gait = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_gait.json"));
+  ASSERT_TRUE(gait.contains("tuning")) << gait.dump();
+  EXPECT_GE(gait["tuning"]["simulations"].get<int>(), 8);
+  EXPECT_FALSE(gait["pelvis_residuals"].get<bool>());
+  const nlohmann::json tuned = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_cpg_tuned.json"));
+  ASSERT_TRUE(tuned.contains("controller"));
+  EXPECT_EQ(tuned["controller"]["reflex_kp"].get<double>(), gait["tuning"]["reflex_kp"].get<double>());
+  const CliRun replay = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                            "/out/w_ik.mot --duration 0.5 -o " + dir + "/replay");
+  ASSERT_EQ(replay.status, 0) << replay.output;
+  EXPECT_NE(replay.output.find("controller from the CPG"), std::string::npos) << replay.output;
+  EXPECT_NE(replay.output.find("without residuals"), std::string::npos) << replay.output;
+  fs::remove_all(dir);
+}
+
 // A trial exported as a Z-up lab's C3D runs through IK as its TRC does (the markers turned into
 // OpenSim's Y-up frame), and `cpgait convert` writes that TRC.
 TEST(Cli, IkTakesC3dAsItTakesTrcAndConvertWritesTheTrc) {

@@ -2,6 +2,7 @@
 #include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/reproduced_gait.h"
+#include "cpgait/gait/tune_gait_controller.h"
 #include "products.h"
 #include "stage.h"
 #include "output_files.h"
@@ -13,6 +14,8 @@ struct GaitStageOptions {
   std::optional<double> duration_s;
   bool residuals = true;
   bool phase_reference = false;
+  int tune_evaluations = 0;
+  double tune_horizon_s = 5.0;
 
   static const OptionFields<GaitStageOptions>& fields() {
     static const OptionFields<GaitStageOptions> f =
@@ -23,7 +26,12 @@ struct GaitStageOptions {
             .boolean("residuals", &GaitStageOptions::residuals,
                      "pelvis residual actuators hold the rotations and soft springs the translations; false: the model walks on its own")
             .boolean("phase_reference", &GaitStageOptions::phase_reference,
-                     "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time");
+                     "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time")
+            .integer("tune_evaluations", &GaitStageOptions::tune_evaluations, 0, 5000,
+                     "tune the controller to walk without residuals first: CMA-ES over the reflex gains and the CPG's amplitude, this "
+                     "many simulations in parallel (0: no tuning); the tuned CPG is written to _cpg_tuned.json and drives the gait")
+            .number("tune_horizon_s", &GaitStageOptions::tune_horizon_s, "s", "simulated time per tuning candidate",
+                    NumberRange{0.5, 30.0, true});
     return f;
   }
 };
@@ -34,7 +42,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
   std::string description() const override { return "reproduced gait: the CPG-driven muscles walk the model on contact spheres"; }
   std::vector<std::string> needs() const override { return {"cpg"}; }
   std::vector<std::string> writes() const override {
-    return {"_gait.mot", "_gait_residuals.sto", "_gait_contact_forces.sto", "_gait.json"};
+    return {"_gait.mot", "_gait_residuals.sto", "_gait_contact_forces.sto", "_gait.json", "_cpg_tuned.json (when tuned)"};
   }
   std::vector<std::string> tables() const override { return {"_gait.mot", "_gait_residuals.sto"}; }
 
@@ -68,12 +76,29 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.phase_indexed_reference = o.phase_reference;
     // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
-    const ReproducedGaitResult g = reproduce_gait(model, cpg->model, reference, feet, go, trial.progress);
+    CpgModel driving = cpg->model;
+    nlohmann::json tuning;
+    if (o.tune_evaluations > 0) {
+      GaitTuningOptions to;
+      to.evaluations = o.tune_evaluations;
+      to.horizon_s = o.tune_horizon_s;
+      const GaitTuningResult tuned = tune_gait_controller(model, cpg->model, reference, feet, go, to, trial.progress);
+      driving = tuned.cpg;
+      trial.write_text(json_text(driving.to_json(), 2) + "\n", "_cpg_tuned.json");
+      tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
+                {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
+                {"horizon_s", to.horizon_s}, {"reflex_kp", driving.controller->reflex_kp}, {"reflex_kv", driving.controller->reflex_kv},
+                {"amplitude", driving.amplitude}};
+    }
+    go = with_cpg_controller(driving, go);  // a tuned CPG walks as it was tuned
+    const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, go, trial.progress);
     trial.write(reproduced_gait_motion_table(model, g), "_gait.mot");
     trial.write(reproduced_gait_residual_table(g), "_gait_residuals.sto");
     trial.write(reproduced_gait_contact_table(g), "_gait_contact_forces.sto");
     nlohmann::json summary = reproduced_gait_metrics(model, g);
     summary["compliant_tendons"] = go.compliant_tendons;
+    summary["pelvis_residuals"] = go.pelvis_residuals;
+    if (!tuning.is_null()) summary["tuning"] = tuning;
     nlohmann::json radius = nlohmann::json::object();
     for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};

@@ -558,7 +558,7 @@ nlohmann::json CpgModel::to_json() const {
     for (Eigen::Index i = 0; i < M.rows(); ++i) rows.push_back(vec(M.row(i).transpose()));
     return rows;
   };
-  return {{"schema", "cpgait.cpg/1"},
+  nlohmann::json j = {{"schema", "cpgait.cpg/1"},
           {"network", {{"tau_r_s", vec(network.tau_r_s)}, {"tau_a_s", vec(network.tau_a_s)}, {"b", vec(network.b)},
                        {"s", vec(network.s)}, {"a", mat(network.a)}}},
           {"start", {{"x", vec(start.x)}, {"f", vec(start.f)}}},
@@ -569,6 +569,12 @@ nlohmann::json CpgModel::to_json() const {
           {"output_map", mat(output_map)},
           {"output_bias", vec(output_bias)},
           {"feedback", {{"signals", feedback_signals}, {"gains", mat(feedback_gains)}}}};
+  if (controller)
+    j["controller"] = {{"reflex_kp", controller->reflex_kp},
+                       {"reflex_kv", controller->reflex_kv},
+                       {"phase_reference", controller->phase_reference},
+                       {"pelvis_residuals", controller->pelvis_residuals}};
+  return j;
 }
 
 CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source) {
@@ -615,6 +621,16 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
                                                     : mat(j["feedback"].at("gains"), "feedback.gains", N, static_cast<Eigen::Index>(m.feedback_signals.size()));
     } else {
       m.feedback_gains = Eigen::MatrixXd::Zero(N, 0);
+    }
+    if (j.contains("controller")) {
+      const auto& c = j["controller"];
+      CpgController k;
+      k.reflex_kp = c.value("reflex_kp", k.reflex_kp);
+      k.reflex_kv = c.value("reflex_kv", k.reflex_kv);
+      k.phase_reference = c.value("phase_reference", k.phase_reference);
+      k.pelvis_residuals = c.value("pelvis_residuals", k.pelvis_residuals);
+      if (!(k.reflex_kp >= 0) || !(k.reflex_kv >= 0)) fail("controller.reflex_kp", "reflex gains must be non-negative");
+      m.controller = k;
     }
     return m;
   } catch (const nlohmann::json::exception& e) {

@@ -415,6 +415,16 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   return r;
 }
 
+ReproducedGaitOptions with_cpg_controller(const CpgModel& cpg, ReproducedGaitOptions o) {
+  if (cpg.controller) {
+    o.reflex_kp = cpg.controller->reflex_kp;
+    o.reflex_kv = cpg.controller->reflex_kv;
+    o.phase_indexed_reference = cpg.controller->phase_reference;
+    o.pelvis_residuals = cpg.controller->pelvis_residuals;
+  }
+  return o;
+}
+
 std::string ReproducedGaitResult::BriefReport() const {
   char buf[500];
   std::snprintf(buf, sizeof buf,

@@ -14,12 +14,21 @@
 // network's period equals the gait cycle.
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "cpgait/cpg/matsuoka.h"
 
 namespace cpgait {
+
+// The reproduced gait's controller as tuned for this CPG (tune_gait_controller.h): stored with the CPG
+// so that replaying it walks the same way.
+struct CpgController {
+  double reflex_kp = 100, reflex_kv = 10;  // joint reflex, excitation per (m x rad) and per (m x rad/s)
+  bool phase_reference = true;             // reflex targets from the trial's cycle at the CPG's phase
+  bool pelvis_residuals = false;           // tuned to walk without them
+};
 
 struct CpgModel {
   MatsuokaNetwork network;              // time constants in seconds, fitted period = cycle_s
@@ -35,6 +44,7 @@ struct CpgModel {
   // Feedback: neuron input u = feedback_gains * signals (joint angles in rad, foot contact 0/1).
   std::vector<std::string> feedback_signals;
   Eigen::MatrixXd feedback_gains;       // neurons x signals
+  std::optional<CpgController> controller;  // absent until tuned
 
   nlohmann::json to_json() const;
   // Throws InputError naming the JSON field.

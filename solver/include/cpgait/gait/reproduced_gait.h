@@ -104,6 +104,10 @@ struct ReproducedGaitResult {
   std::string BriefReport() const;
 };
 
+// The options with the CPG's tuned controller applied (tune_gait_controller.h), when it has one: its
+// reflex gains, reference and residual setting.
+ReproducedGaitOptions with_cpg_controller(const CpgModel& cpg, ReproducedGaitOptions options);
+
 ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg, const Storage& reference_coordinates,
                                     const ContactSet& contacts, const ReproducedGaitOptions& options = {},
                                     Progress* progress = nullptr);
