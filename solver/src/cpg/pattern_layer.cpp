@@ -254,7 +254,7 @@ PatternNeurons fit_pattern_neurons(const Eigen::MatrixXd& fine_rhythm, double pe
   const auto qr = centred.colPivHouseholderQr();
   Eigen::Index peak;
   search_target.maxCoeff(&peak);
-  const double floor = search_target.minCoeff(), target_range = search_target.maxCoeff() - floor;
+  const double lowest = search_target.minCoeff(), target_range = search_target.maxCoeff() - lowest;
   std::vector<Eigen::VectorXd> follow(static_cast<std::size_t>(units));
   std::vector<double> follow_range(static_cast<std::size_t>(units), 0.0);
   for (int k = 0; k < units; ++k) {
@@ -263,9 +263,9 @@ PatternNeurons fit_pattern_neurons(const Eigen::MatrixXd& fine_rhythm, double pe
       double d = std::abs(static_cast<double>(i - peak)) / T;
       d = std::min(d, 1 - d);
       const bool near_peak = d < 0.25;
-      if (units > 1 && near_peak != (k == 0)) part[i] = floor;
+      if (units > 1 && near_peak != (k == 0)) part[i] = lowest;
     }
-    if (part.maxCoeff() - floor < 0.1 * target_range) continue;
+    if (part.maxCoeff() - lowest < 0.1 * target_range) continue;
     follow[static_cast<std::size_t>(k)] = -qr.solve((part.array() - part.mean()).matrix());
     const Eigen::VectorXd d = centred * follow[static_cast<std::size_t>(k)];
     follow_range[static_cast<std::size_t>(k)] = d.maxCoeff() - d.minCoeff();

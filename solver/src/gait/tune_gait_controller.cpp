@@ -34,8 +34,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     if (model.coordinates[c].is_angle()) rotations.push_back(c);
   std::atomic<int> done{0};
   std::mutex progress_mutex;
-  // One candidate's simulation and score; walked receives the time it walked.
-  auto score = [&](const Candidate& k, double* walked) {
+  // One candidate's simulation and score; walked receives the time it walked. The start's errors
+  // (the inputs') propagate; a candidate's score as falling at once.
+  auto score = [&](const Candidate& k, double* walked, bool rethrow) {
     ReproducedGaitOptions o = base;
     o.duration_s = t.horizon_s;
     o.pelvis_residuals = false;
@@ -54,7 +55,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       const double effort = g.excitations.size() ? g.excitations.array().square().mean() : 0.0;
       cost = t.fall_weight * (t.horizon_s - time_walked) / t.horizon_s + t.tracking_weight * tracking + t.effort_weight * effort;
     } catch (const std::exception&) {
-      // A candidate whose simulation cannot run scores as falling at once.
+      if (rethrow) throw;
     }
     if (walked) *walked = time_walked;
     const int n = ++done;
@@ -66,7 +67,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   };
   GaitTuningResult result;
   const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(3);
-  result.summary.start_cost = score(decode(x0, start), &result.summary.start_walked_s);
+  result.summary.start_cost = score(decode(x0, start), &result.summary.start_walked_s, true);
   CmaEsOptions co;
   co.initial_sigma = 0.5;
   co.max_evaluations = t.evaluations;
@@ -74,13 +75,13 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   co.seed = t.seed;
   co.lower = Eigen::Vector3d(-3.0, -3.0, -3.0);  // gains from 1/20 of the start's ...
   co.upper = Eigen::Vector3d(4.0, 3.0, 3.0);     // ... to 55 (kp) and 20 (kv) times
-  const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, start), nullptr); }, x0, co);
+  const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, start), nullptr, false); }, x0, co);
   Eigen::VectorXd best = x0;
   result.summary.cost = result.summary.start_cost;
   if (s.best_value < result.summary.start_cost) best = s.best_x, result.summary.cost = s.best_value;
   const Candidate k = decode(best, start);
   result.summary.walked_s = result.summary.start_walked_s;
-  if (best != x0) score(k, &result.summary.walked_s);  // the winner's walk, for the summary
+  if (best != x0) score(k, &result.summary.walked_s, false);  // the winner's walk, for the summary
   result.cpg = cpg;
   result.cpg.controller = CpgController{k.kp, k.kv, true, false};
   result.cpg.amplitude = cpg.amplitude * k.amplitude_factor;
