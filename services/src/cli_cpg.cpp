@@ -202,7 +202,7 @@ void run_gait(const GaitArgs& g) {
                 driving.controller->reflex_kp, driving.controller->reflex_kv, driving.amplitude);
   }
   if (driving.controller) {
-    o = with_cpg_controller(driving, o);
+    o = with_controller(*driving.controller, o);
     std::printf("controller from the CPG: reflex %.1f / %.2f, %s, %s residuals\n", o.reflex_kp, o.reflex_kv,
                 o.phase_indexed_reference ? "reference by phase" : "reference by time", o.pelvis_residuals ? "with" : "without");
   }

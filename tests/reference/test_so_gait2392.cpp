@@ -460,7 +460,8 @@ TEST(CpgGait2392, TunedControllerWalksLongerAndReplaysFromTheCpgJson) {
   EXPECT_GT(tuned.summary.walked_s, tuned.summary.start_walked_s + 0.2) << "regression bound";
   // Replayed from the JSON: the same walk.
   const CpgModel replayed = CpgModel::from_json(tuned.cpg.to_json(), "tuned.json");
-  ReproducedGaitOptions r = with_cpg_controller(replayed, o);
+  ASSERT_TRUE(replayed.controller.has_value());
+  ReproducedGaitOptions r = with_controller(*replayed.controller, o);
   r.duration_s = t.horizon_s;
   const ReproducedGaitResult walk = reproduce_gait(g.m, replayed, g.kin, g.feet, r);
   const double walked = walk.fell_at_s < 0 ? t.horizon_s : walk.fell_at_s;

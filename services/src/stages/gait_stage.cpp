@@ -90,7 +90,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
                 {"horizon_s", to.horizon_s}, {"reflex_kp", driving.controller->reflex_kp}, {"reflex_kv", driving.controller->reflex_kv},
                 {"amplitude", driving.amplitude}};
     }
-    go = with_cpg_controller(driving, go);  // a tuned CPG walks as it was tuned
+    if (driving.controller) go = with_controller(*driving.controller, go);  // a tuned CPG walks as it was tuned
     const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, go, trial.progress);
     trial.write(reproduced_gait_motion_table(model, g), "_gait.mot");
     trial.write(reproduced_gait_residual_table(g), "_gait_residuals.sto");

@@ -415,13 +415,11 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   return r;
 }
 
-ReproducedGaitOptions with_cpg_controller(const CpgModel& cpg, ReproducedGaitOptions o) {
-  if (cpg.controller) {
-    o.reflex_kp = cpg.controller->reflex_kp;
-    o.reflex_kv = cpg.controller->reflex_kv;
-    o.phase_indexed_reference = cpg.controller->phase_reference;
-    o.pelvis_residuals = cpg.controller->pelvis_residuals;
-  }
+ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOptions o) {
+  o.reflex_kp = c.reflex_kp;
+  o.reflex_kv = c.reflex_kv;
+  o.phase_indexed_reference = c.phase_reference;
+  o.pelvis_residuals = c.pelvis_residuals;
   return o;
 }
 

@@ -37,12 +37,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   // One candidate's simulation and score; walked receives the time it walked. The start's errors
   // (the inputs') propagate; a candidate's score as falling at once.
   auto score = [&](const Candidate& k, double* walked, bool rethrow) {
-    ReproducedGaitOptions o = base;
+    ReproducedGaitOptions o = with_controller(CpgController{k.kp, k.kv, true, false}, base);
     o.duration_s = t.horizon_s;
-    o.pelvis_residuals = false;
-    o.phase_indexed_reference = true;
-    o.reflex_kp = k.kp;
-    o.reflex_kv = k.kv;
     o.amplitude = base.amplitude * k.amplitude_factor;
     double cost = t.fall_weight;
     double time_walked = 0;

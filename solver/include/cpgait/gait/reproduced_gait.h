@@ -104,9 +104,9 @@ struct ReproducedGaitResult {
   std::string BriefReport() const;
 };
 
-// The options with the CPG's tuned controller applied (tune_gait_controller.h), when it has one: its
+// The options with a tuned controller applied (tune_gait_controller.h; stored in the CPG's JSON): its
 // reflex gains, reference and residual setting.
-ReproducedGaitOptions with_cpg_controller(const CpgModel& cpg, ReproducedGaitOptions options);
+ReproducedGaitOptions with_controller(const CpgController& controller, ReproducedGaitOptions options);
 
 ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg, const Storage& reference_coordinates,
                                     const ContactSet& contacts, const ReproducedGaitOptions& options = {},
