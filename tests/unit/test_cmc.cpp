@@ -16,6 +16,8 @@
 #include "cpgait/fixtures/synthetic_trial.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/muscle_model.h"
 #include "cpgait/muscles/thelen2003.h"
 #include "test_support.h"
 
@@ -194,6 +196,44 @@ TEST(Thelen2003, CompliantEquilibriumBalancesTendonAndFibre) {
   EXPECT_LT(thelen2003::compliant_tendon_fiber(mu, 1.0, L, lm).fiber_velocity_m_s, 0.0);  // more activation: shortens
   EXPECT_LT(thelen2003::compliant_tendon_fiber(mu, 0.5, L, lm * 1.02).fiber_velocity_m_s, 0.0);
   EXPECT_GT(thelen2003::compliant_tendon_fiber(mu, 0.5, L, lm * 0.98).fiber_velocity_m_s, 0.0);
+}
+
+// CMC's force predictor solves each backward-Euler substep of the fibre equation to its root: the
+// same substeps solved by bisection on g(l) = l - l_prev - h v(l) (monotonic) give the same fibre
+// length and force, for a Thelen and a Millard muscle, from rest and while the path moves.
+TEST(CompliantMuscleAfter, SolvesEachBackwardEulerSubstepToItsRoot) {
+  Muscle millard = walker().muscles[0];
+  millard.millard = std::make_shared<const millard2012::Curves>(millard2012::make_curves(millard2012::Parameters{}));
+  for (const Muscle* mu : {&walker().muscles[0], static_cast<const Muscle*>(&millard)}) {
+    const double L0 = mu->tendon_slack_length_m + mu->optimal_fiber_length_m * 1.02, T = 0.005;
+    for (double a0 : {0.02, 0.3}) {
+      const double lm0 = muscles::compliant_equilibrium_fiber_length(*mu, a0, L0, 0.0);
+      for (double dL : {-0.004, 0.0, 0.003})
+        for (double u : {0.01, 0.4, 1.0}) {
+          const auto got = muscles::compliant_muscle_after(*mu, a0, lm0, L0, L0 + dL, u, T);
+          // Reference: five 1 ms substeps, activation as the predictor steps it, fibre by bisection.
+          double a = a0, lm = lm0;
+          const double lm_min = mu->millard ? millard2012::min_fiber_length(*mu) : thelen2003::min_fiber_length(*mu);
+          for (int i = 1; i <= 5; ++i) {
+            a = thelen_activation_after(*mu, a, u, T / 5);
+            const double L = L0 + dL * i / 5;
+            auto g = [&](double l) { return l - lm - T / 5 * muscles::compliant_tendon_fiber(*mu, a, L, l).fiber_velocity_m_s; };
+            double lo = lm_min, hi = 2 * lm + mu->optimal_fiber_length_m;
+            if (g(lo) >= 0) {
+              lm = lo;
+              continue;
+            }
+            for (int it = 0; it < 200; ++it) (g(0.5 * (lo + hi)) < 0 ? lo : hi) = 0.5 * (lo + hi);
+            lm = 0.5 * (lo + hi);
+          }
+          const double force = muscles::compliant_tendon_fiber(*mu, a, L0 + dL, lm).force_N;
+          EXPECT_NEAR(got.fiber_length_m, lm, 1e-10 * mu->optimal_fiber_length_m)
+              << (mu->millard ? "Millard" : "Thelen") << " a0 " << a0 << " dL " << dL << " u " << u;
+          EXPECT_NEAR(got.force_N, force, 1e-6 * mu->max_isometric_force_N) << a0 << " " << dL << " " << u;
+          EXPECT_NEAR(got.activation, a, 1e-15);
+        }
+    }
+  }
 }
 
 TEST(ActivationDynamics, ExcitationForATargetActivation) {

@@ -83,6 +83,46 @@ TEST(Millard2012, CurvesHaveTheirDefiningValuesAndSlopes) {
     }
 }
 
+// Each curve's value is its Bezier segment's y at the root u of x(u) = x to rounding: the lookup
+// table's start and its single Newton step stand in for OpenSim's iteration to 100 machine epsilons.
+// Reference: bisection on the Bernstein form of the same control points. Sampled densely near the
+// joins and around isometric, where u(x) bends most.
+TEST(Millard2012, CurveValuesAreTheirBezierRootsToRounding) {
+  auto bernstein = [](const std::array<double, 6>& p, double u) {
+    const double v = 1 - u;
+    return v * v * v * v * v * p[0] + 5 * v * v * v * v * u * p[1] + 10 * v * v * v * u * u * p[2] + 10 * v * v * u * u * u * p[3] +
+           5 * v * u * u * u * u * p[4] + u * u * u * u * u * p[5];
+  };
+  auto reference = [&](const SmoothSegmentedFunction& f, double x) {
+    const auto& segs = f.segments();
+    std::size_t i = segs.size() - 1;
+    for (std::size_t k = 0; k < segs.size(); ++k)
+      if (x >= segs[k].x[0] && x < segs[k].x[5]) {
+        i = k;
+        break;
+      }
+    double lo = 0, hi = 1;
+    for (int it = 0; it < 200; ++it) (bernstein(segs[i].x, 0.5 * (lo + hi)) < x ? lo : hi) = 0.5 * (lo + hi);
+    return bernstein(segs[i].y, 0.5 * (lo + hi));
+  };
+  millard2012::Parameters p;
+  const millard2012::Curves c = millard2012::make_curves(p);
+  std::mt19937 rng(7);
+  for (const SmoothSegmentedFunction* f :
+       {&c.active_force_length, &c.force_velocity, &c.force_velocity_inverse, &c.fiber_force_length, &c.tendon_force_length}) {
+    std::vector<double> xs;
+    for (int i = 0; i <= 20000; ++i) xs.push_back(f->x_begin() + (f->x_end() - f->x_begin()) * i / 20000.0);
+    for (const auto& seg : f->segments())
+      for (double join : {seg.x[0], seg.x[5]}) {
+        std::uniform_real_distribution<double> near(-1e-3, 1e-3);
+        for (int i = 0; i < 500; ++i) xs.push_back(std::clamp(join + near(rng), f->x_begin(), f->x_end()));
+      }
+    double worst = 0;
+    for (double x : xs) worst = std::max(worst, std::abs(f->value(x) - reference(*f, x)));
+    EXPECT_LT(worst, 1e-13) << "curve from " << f->x_begin() << " to " << f->x_end();
+  }
+}
+
 // An undamped elastic tendon keeps OpenSim's singularity guards: the active-force-length curve never
 // drops below 0.1 and the force-velocity curve keeps a slope of 0.1 at its ends.
 TEST(Millard2012, UndampedElasticTendonKeepsTheCurvesAwayFromZero) {

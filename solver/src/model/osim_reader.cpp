@@ -82,6 +82,7 @@ class Reader {
   std::map<std::string, Frame> frames_;
   std::vector<xml_node> joint_nodes_;   // in file order
   std::vector<int> joint_child_;        // child body of each joint node
+  std::vector<std::pair<millard2012::Parameters, std::shared_ptr<const millard2012::Curves>>> millard_curves_;
 
   void warn(const xml_node& n, const std::string& msg) {
     r_.warnings.push_back(d_.name() + ":" + std::to_string(d_.line_of(n)) + ": " + n.name() +
@@ -889,7 +890,13 @@ class Reader {
     t.norm_force_at_toe_end = optional_number(fse, "norm_force_at_toe_end");
     t.curviness = optional_number(fse, "curviness");
     try {
-      mu.millard = std::make_shared<const millard2012::Curves>(millard2012::make_curves(p));
+      // Muscles with the same parameters share their curves (and their lookup tables' cache lines).
+      for (const auto& [q, curves] : millard_curves_)
+        if (q == p) mu.millard = curves;
+      if (!mu.millard) {
+        mu.millard = std::make_shared<const millard2012::Curves>(millard2012::make_curves(p));
+        millard_curves_.emplace_back(p, mu.millard);
+      }
     } catch (const std::invalid_argument& e) {
       d_.fail(n, std::string("muscle '") + mu.name + "': " + e.what());
     }

@@ -8,16 +8,22 @@
 namespace cpgait {
 namespace {
 
-double bezier(const std::array<double, 6>& p, double u) {
-  const double v = 1.0 - u, u2 = u * u, v2 = v * v;
-  return v2 * v2 * v * p[0] + 5 * v2 * v2 * u * p[1] + 10 * v2 * v * u2 * p[2] + 10 * v2 * u2 * u * p[3] +
-         5 * v * u2 * u2 * p[4] + u2 * u2 * u * p[5];
+// Bernstein control points -> power-basis coefficients c (p(u) = sum c_k u^k).
+std::array<double, 6> power_basis(const std::array<double, 6>& p) {
+  return {p[0],
+          5 * (p[1] - p[0]),
+          10 * (p[2] - 2 * p[1] + p[0]),
+          10 * (p[3] - 3 * p[2] + 3 * p[1] - p[0]),
+          5 * (p[4] - 4 * p[3] + 6 * p[2] - 4 * p[1] + p[0]),
+          p[5] - 5 * p[4] + 10 * p[3] - 10 * p[2] + 5 * p[1] - p[0]};
 }
 
-double bezier_du(const std::array<double, 6>& p, double u) {
-  const double v = 1.0 - u, u2 = u * u, v2 = v * v;
-  return 5 * (v2 * v2 * (p[1] - p[0]) + 4 * v2 * v * u * (p[2] - p[1]) + 6 * v2 * u2 * (p[3] - p[2]) +
-              4 * v * u2 * u * (p[4] - p[3]) + u2 * u2 * (p[5] - p[4]));
+double horner(const std::array<double, 6>& c, double u) {
+  return ((((c[5] * u + c[4]) * u + c[3]) * u + c[2]) * u + c[1]) * u + c[0];
+}
+
+double horner_du(const std::array<double, 6>& c, double u) {
+  return (((5 * c[5] * u + 4 * c[4]) * u + 3 * c[3]) * u + 2 * c[2]) * u + c[1];
 }
 
 }  // namespace
@@ -51,15 +57,27 @@ SmoothSegmentedFunction::SmoothSegmentedFunction(std::vector<QuinticBezier> segm
                                                  double y0, double y1, double dydx0, double dydx1)
     : segments_(std::move(segments)), x0_(x0), x1_(x1), y0_(y0), y1_(y1), dydx0_(dydx0), dydx1_(dydx1) {
   for (const auto& seg : segments_) {
+    const double width = seg.x[5] - seg.x[0];
+    polynomials_.push_back({power_basis(seg.x), power_basis(seg.y), seg.x[0], width, width > 0 ? kTable / width : 0.0});
+    const std::array<double, 6>& px = polynomials_.back().x;
     std::array<Node, kTable + 1> t{};
+    double u = 0;
     for (int k = 0; k <= kTable; ++k) {
-      const double x = seg.x[0] + (seg.x[5] - seg.x[0]) * k / kTable;
-      double lo = 0, hi = 1;  // x(u) rises on a corner: bisection to machine precision
-      for (int it = 0; it < 60; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (bezier(seg.x, mid) < x ? lo : hi) = mid;
+      // x(u) rises on a corner: Newton from the previous node, within the bracket [previous u, 1],
+      // bisecting where a step would leave it, to machine precision.
+      const double x = seg.x[0] + width * k / kTable;
+      double lo = u, hi = 1;
+      for (int it = 0; it < 100 && hi - lo > 0; ++it) {
+        const double f = horner(px, u) - x;
+        if (f == 0) break;
+        (f > 0 ? hi : lo) = u;
+        const double df = horner_du(px, u);
+        double next = df > 0 ? u - f / df : 0.5 * (lo + hi);
+        if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+        if (next == u) break;
+        u = next;
       }
-      const double u = 0.5 * (lo + hi), dx = bezier_du(seg.x, u);
+      const double dx = horner_du(px, u);
       t[k] = {u, dx > 0 ? 1.0 / dx : 0.0};
     }
     u_table_.push_back(t);
@@ -75,30 +93,29 @@ void SmoothSegmentedFunction::locate(double x, int& segment, double& u) const {
       segment = i;
       break;
     }
-  const auto& px = segments_[segment].x;
-  const double width = px[5] - px[0];
-  const double s = width > 0 ? std::clamp((x - px[0]) / width, 0.0, 1.0) * kTable : 0.0;
+  const Polynomials& p = polynomials_[segment];
+  const double s = std::clamp((x - p.x_begin) * p.nodes_per_x, 0.0, double(kTable));
   const int k = std::min(static_cast<int>(s), kTable - 1);
   const Node& a = u_table_[segment][k];
   const Node& b = u_table_[segment][k + 1];
-  // Cubic Hermite between the two nodes, in t in [0, 1] over a node spacing of width / kTable.
-  const double t = s - k, h = width / kTable, t2 = t * t, t3 = t2 * t;
+  // Cubic Hermite between the two nodes, in t in [0, 1] over a node spacing of h.
+  const double t = s - k, h = p.width / kTable, t2 = t * t, t3 = t2 * t;
   u = (2 * t3 - 3 * t2 + 1) * a.u + (t3 - 2 * t2 + t) * h * a.du_dx + (-2 * t3 + 3 * t2) * b.u + (t3 - t2) * h * b.du_dx;
   // From the interpolated start (|x(u) - x| ~1e-9) one Newton step lands within rounding of the root:
   // the error squares. Otherwise Newton to OpenSim's 100 machine epsilons in x, with bisection where
   // Newton would leave the bracket.
   const double tol = 100 * std::numeric_limits<double>::epsilon();
-  const double f0 = bezier(px, u) - x;
-  if (std::abs(f0) <= 1e-7 * width) {
-    u = std::clamp(u - f0 / bezier_du(px, u), 0.0, 1.0);
+  const double f0 = horner(p.x, u) - x;
+  if (std::abs(f0) <= 1e-7 * p.width) {
+    u = std::clamp(u - f0 / horner_du(p.x, u), 0.0, 1.0);
     return;
   }
   double lo = 0, hi = 1;
   for (int it = 0; it < 60; ++it) {
-    const double f = bezier(px, u) - x;
+    const double f = horner(p.x, u) - x;
     if (std::abs(f) <= tol) return;
     (f > 0 ? hi : lo) = u;
-    const double df = bezier_du(px, u);
+    const double df = horner_du(p.x, u);
     double next = df != 0 ? u - f / df : 0.5 * (lo + hi);
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
     if (next == u || hi - lo <= std::numeric_limits<double>::epsilon()) return;
@@ -112,7 +129,7 @@ double SmoothSegmentedFunction::value(double x) const {
   int i;
   double u;
   locate(x, i, u);
-  return bezier(segments_[i].y, u);
+  return horner(polynomials_[i].y, u);
 }
 
 void SmoothSegmentedFunction::value_and_derivative(double x, double& y, double& dydx) const {
@@ -124,8 +141,9 @@ void SmoothSegmentedFunction::value_and_derivative(double x, double& y, double& 
   int i;
   double u;
   locate(x, i, u);
-  y = bezier(segments_[i].y, u);
-  dydx = bezier_du(segments_[i].y, u) / bezier_du(segments_[i].x, u);
+  const Polynomials& p = polynomials_[i];
+  y = horner(p.y, u);
+  dydx = horner_du(p.y, u) / horner_du(p.x, u);
 }
 
 double SmoothSegmentedFunction::derivative(double x) const {
@@ -134,7 +152,7 @@ double SmoothSegmentedFunction::derivative(double x) const {
   int i;
   double u;
   locate(x, i, u);
-  return bezier_du(segments_[i].y, u) / bezier_du(segments_[i].x, u);
+  return horner_du(polynomials_[i].y, u) / horner_du(polynomials_[i].x, u);
 }
 
 }  // namespace cpgait

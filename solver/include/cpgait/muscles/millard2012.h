@@ -19,6 +19,7 @@ struct ActiveForceLengthParameters {
   double max_norm_active_fiber_length = 1.8123;
   double shallow_ascending_slope = 0.8616;
   double minimum_value = 0.1;
+  bool operator==(const ActiveForceLengthParameters&) const = default;
 };
 struct ForceVelocityParameters {
   double concentric_slope_at_vmax = 0.0;
@@ -29,16 +30,19 @@ struct ForceVelocityParameters {
   double max_eccentric_velocity_force_multiplier = 1.4;
   double concentric_curviness = 0.6;
   double eccentric_curviness = 0.9;
+  bool operator==(const ForceVelocityParameters&) const = default;
 };
 // The optional properties are either all given or all absent (then OpenSim's fitted curve).
 struct FiberForceLengthParameters {
   double strain_at_zero_force = 0.0;
   double strain_at_one_norm_force = 0.7;
   std::optional<double> stiffness_at_low_force, stiffness_at_one_norm_force, curviness;
+  bool operator==(const FiberForceLengthParameters&) const = default;
 };
 struct TendonForceLengthParameters {
   double strain_at_one_norm_force = 0.049;
   std::optional<double> stiffness_at_one_norm_force, norm_force_at_toe_end, curviness;
+  bool operator==(const TendonForceLengthParameters&) const = default;
 };
 
 struct Parameters {
@@ -50,6 +54,7 @@ struct Parameters {
   double minimum_activation = 0.01;
   double maximum_pennation_angle_rad = 1.4706289056333368;  // acos(0.1)
   bool ignore_tendon_compliance = false;
+  bool operator==(const Parameters&) const = default;
 };
 
 // The curves factory (OpenSim's SmoothSegmentedFunctionFactory). Each throws std::invalid_argument

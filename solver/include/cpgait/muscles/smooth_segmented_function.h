@@ -37,9 +37,19 @@ class SmoothSegmentedFunction {
   // Index of the segment holding x and its Bezier parameter u.
   void locate(double x, int& segment, double& u) const;
   std::vector<QuinticBezier> segments_;
+  // Each segment's x(u) and y(u) in the power basis (Horner: a fifth of the Bernstein form's
+  // multiplications; a CMC evaluates them millions of times), its x range's start and width, and
+  // kTable / width.
+  struct Polynomials {
+    std::array<double, 6> x, y;
+    double x_begin, width, nodes_per_x;
+  };
+  std::vector<Polynomials> polynomials_;
   // Per segment, u and du/dx at evenly spaced x: their cubic Hermite interpolant starts Newton within
-  // ~1e-8 of the root, and one step finishes (OpenSim starts from a spline of u(x) too).
-  static constexpr int kTable = 32;
+  // 1e-7 of the segment's width on Millard's curves, and one step finishes (OpenSim starts from a
+  // spline of u(x) too). At 32 nodes two thirds of a CMC's force-velocity lookups, near isometric,
+  // started further out and iterated (measured).
+  static constexpr int kTable = 256;
   struct Node {
     double u, du_dx;
   };
