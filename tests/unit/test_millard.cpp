@@ -185,6 +185,29 @@ TEST(Millard2012, CompliantFibreVelocityBalancesTendonAndFibre) {
 
 // With the tendon at its slack length the rigid-tendon force is the fibre's own: at optimal length
 // and no motion a*F0*cos(pennation) active, nothing passive; lengthening adds the damping force.
+// The damped fibre's velocity is the one root of its force balance from any starting guess: across
+// the force-velocity curve's corner at isometric a plain Newton step cycled between the eccentric and
+// concentric sides (CMC's force predictor, warm-started from the last evaluation, met such a cycle
+// and tracked 8.5 deg off).
+TEST(Millard2012, DampedFibreVelocityIsTheSameFromAnyGuess) {
+  const Muscle m = millard_muscle(0.1);
+  const double vmax = 0.1 * 10;  // optimal length x max contraction velocity (m/s)
+  const double L = 0.1 * std::cos(0.3) + 0.25 * 1.02;
+  int compared = 0;
+  for (double a : {0.02, 0.18, 0.6, 1.0})
+    for (double scale : {0.9, 0.97, 1.0, 1.03, 1.1}) {
+      const double lm = muscles::compliant_equilibrium_fiber_length(m, a, L, 0.0) * scale;
+      const CompliantTendonFiber reference = muscles::compliant_tendon_fiber(m, a, L, lm);
+      for (int k = -20; k <= 20; ++k) {
+        const double guess = 0.05 * k;
+        const CompliantTendonFiber f = muscles::compliant_tendon_fiber(m, a, L, lm, guess * vmax);
+        EXPECT_NEAR(f.fiber_velocity_m_s, reference.fiber_velocity_m_s, 1e-8 * vmax) << a << " " << scale << " " << guess;
+        ++compared;
+      }
+    }
+  EXPECT_EQ(compared, 4 * 5 * 41);
+}
+
 TEST(Millard2012, RigidTendonForces) {
   const Muscle m = millard_muscle();
   const double L = 0.1 * std::cos(0.3) + 0.25;

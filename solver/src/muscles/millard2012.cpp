@@ -212,16 +212,27 @@ double shortest_fiber(const Muscle& m, const Curves& c, const FixedWidthPennatio
 // OpenSim's calcDampedNormFiberVelocity: the normalised fibre velocity at which the damped fibre's
 // force along the tendon equals the tendon's; Newton from the inverse force-velocity curve's guess.
 // The residual rises strictly with the velocity (fv' >= 0, damping > 0), so the root is unique.
-double damped_norm_fiber_velocity(const Curves& c, double a, double fal, double fpe, double fse, double cos_pen) {
+double damped_norm_fiber_velocity(const Curves& c, double a, double fal, double fpe, double fse, double cos_pen, double guess) {
   const double beta = c.parameters.fiber_damping;
-  const double fv_guess = (fse / std::max(cos_pen, 0.01) - fpe) / (std::max(a, 0.01) * std::max(fal, 0.01));
-  double v = std::clamp(c.force_velocity_inverse.value(fv_guess), -1.0, 1.0);
-  for (int it = 0; it < 50; ++it) {
+  double v = guess;
+  if (!std::isfinite(v)) {
+    const double fv_guess = (fse / std::max(cos_pen, 0.01) - fpe) / (std::max(a, 0.01) * std::max(fal, 0.01));
+    v = std::clamp(c.force_velocity_inverse.value(fv_guess), -1.0, 1.0);
+  }
+  // Newton within the bracket the residual's signs have set so far, bisecting where a step would
+  // leave it: across fv's corner at isometric a plain Newton step can cycle between the eccentric
+  // and concentric sides (from v = 0.14 it jumped between -1.14 and 0.78 for good).
+  double lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity();
+  for (int it = 0; it < 100; ++it) {
     double fv, dfv;
     c.force_velocity.value_and_derivative(v, fv, dfv);
     const double err = (a * fal * fv + fpe + beta * v) * cos_pen - fse;
     if (std::abs(err) <= 1e-10) break;  // OpenSim's tolerance, 1e-10 max isometric force
-    v -= err / ((a * fal * dfv + beta) * cos_pen);
+    (err > 0 ? hi : lo) = v;
+    double next = v - err / ((a * fal * dfv + beta) * cos_pen);
+    if (std::isfinite(lo) && std::isfinite(hi) && !(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (next == v) break;
+    v = next;
   }
   return v;
 }
@@ -260,7 +271,7 @@ RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double
   return {m.max_isometric_force_N * active * cos_pen, m.max_isometric_force_N * passive * cos_pen};
 }
 
-CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm) {
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm, double velocity_guess_m_s) {
   const Curves& c = *m.millard;
   const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
   const double lmin = shortest_fiber(m, c, pen);
@@ -270,7 +281,8 @@ CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, 
   const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
   const double lN = lm / m.optimal_fiber_length_m;
   const double fal = c.active_force_length.value(lN), fpe = c.fiber_force_length.value(lN);
-  double vN = c.use_fiber_damping ? damped_norm_fiber_velocity(c, a, fal, fpe, fse, cos_pen)
+  const double guess = std::clamp(velocity_guess_m_s / (m.optimal_fiber_length_m * m.max_contraction_velocity), -1.0, 1.0);
+  double vN = c.use_fiber_damping ? damped_norm_fiber_velocity(c, a, fal, fpe, fse, cos_pen, guess)
                                   : c.force_velocity_inverse.value((fse / cos_pen - fpe) / (a * fal));
   if (lm <= lmin && vN <= 0) vN = 0.0;
   return {m.max_isometric_force_N * fse, vN * m.optimal_fiber_length_m * m.max_contraction_velocity, cos_pen};

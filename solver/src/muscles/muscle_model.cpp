@@ -36,14 +36,14 @@ double rigid_tendon_fiber_length(const Muscle& m, double L) {
   return m.millard ? millard2012::rigid_tendon_fiber_length(m, L) : thelen2003::rigid_tendon_fiber(m, L, 0.0).fiber_length_m;
 }
 
-CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double a, double L, double lm) {
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double a, double L, double lm, double velocity_guess_m_s) {
   if (!m.millard && !m.degroote && !m.rigid_tendon) return thelen2003::compliant_tendon_fiber(m, a, L, lm);  // most muscles
   if (has_rigid_tendon(m)) {  // no fibre state: the force at rest, the fibre held on the path
     const RigidTendonForces f = rigid_tendon_forces(m, a, L, 0.0);
     return {f.active_N + f.passive_N, 0.0, 1.0};
   }
   if (m.degroote) return degroote_fregly2016::compliant_tendon_fiber(m, a, L, lm);
-  return m.millard ? millard2012::compliant_tendon_fiber(m, a, L, lm) : thelen2003::compliant_tendon_fiber(m, a, L, lm);
+  return m.millard ? millard2012::compliant_tendon_fiber(m, a, L, lm, velocity_guess_m_s) : thelen2003::compliant_tendon_fiber(m, a, L, lm);
 }
 
 double compliant_equilibrium_fiber_length(const Muscle& m, double a, double L, double V) {
@@ -79,18 +79,18 @@ CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm
     a = thelen_activation_after(m, a, u, h);
     const double L = L0 + (L1 - L0) * i / n;
     double l = std::max(lm + h * at.fiber_velocity_m_s, lm_min);
-    at = compliant_tendon_fiber(m, a, L, l);
+    at = compliant_tendon_fiber(m, a, L, l, at.fiber_velocity_m_s);
     double g = l - lm - h * at.fiber_velocity_m_s;
     if (slope == 0) {
       const double dl = 1e-7 * m.optimal_fiber_length_m;
-      slope = std::max(1.0, 1.0 - h * (compliant_tendon_fiber(m, a, L, l + dl).fiber_velocity_m_s - at.fiber_velocity_m_s) / dl);
+      slope = std::max(1.0, 1.0 - h * (compliant_tendon_fiber(m, a, L, l + dl, at.fiber_velocity_m_s).fiber_velocity_m_s - at.fiber_velocity_m_s) / dl);
     }
     // |g| bounds the distance to the root (slope >= 1): the test is on g, not on the step, which a
     // secant through a kink of v (Thelen's force-velocity branches) can make small far from it.
     for (int k = 0; k < 40 && std::abs(g) >= tol; ++k) {
       const double l_next = std::max(l - g / slope, lm_min);
       if (l_next == l) break;  // at the floor
-      at = compliant_tendon_fiber(m, a, L, l_next);
+      at = compliant_tendon_fiber(m, a, L, l_next, at.fiber_velocity_m_s);
       const double g_next = l_next - lm - h * at.fiber_velocity_m_s;
       slope = std::max(1.0, (g_next - g) / (l_next - l));
       l = l_next;

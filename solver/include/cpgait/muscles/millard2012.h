@@ -4,6 +4,7 @@
 // fixed-width pennation, and the forces static optimization asks of it. Lengths normalised by
 // optimal fibre length, velocities by optimal fibre length x max contraction velocity, forces by
 // max isometric force.
+#include <limits>
 #include <optional>
 
 #include "cpgait/model/model.h"
@@ -94,7 +95,10 @@ double rigid_tendon_fiber_length(const Muscle& m, double path_length_m);
 // Elastic tendon at fibre length lm: the tendon force and the fibre velocity that balances it
 // (OpenSim's calcFiberVelocityInfo: Newton on the damped equilibrium, or the inverse force-velocity
 // curve without damping); the fibre is held at its minimum length while it would shorten there.
-CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m, double fiber_length_m);
+// velocity_guess_m_s: where the damped Newton starts (a nearby evaluation's velocity: 1-2 steps
+// instead of 3-4 from the inverse curve's guess); NaN: from that guess.
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m, double fiber_length_m,
+                                            double velocity_guess_m_s = std::numeric_limits<double>::quiet_NaN());
 
 // The fibre length where tendon and fibre forces balance with the fibre moving at the path's speed
 // along it (bisection: the residual falls as the fibre lengthens).

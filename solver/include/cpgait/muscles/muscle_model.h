@@ -1,4 +1,5 @@
 #pragma once
+#include <limits>
 // A muscle's forces by its own model: OpenSim's Millard2012EquilibriumMuscle (millard2012.h),
 // DeGrooteFregly2016Muscle, RigidTendonMuscle and Schutte1993Muscle (its equilibrium) for the muscles
 // that are one, Thelen 2003 (thelen2003.h) for the others. The dynamics, CMC and the gait call these;
@@ -17,9 +18,10 @@ RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double
 double rigid_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 double rigid_tendon_fiber_length(const Muscle& m, double path_length_m);
 
-// Compliant tendon with the fibre length a state.
-CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m,
-                                            double fiber_length_m);
+// Compliant tendon with the fibre length a state. velocity_guess_m_s: a nearby evaluation's fibre
+// velocity, where a model that iterates for it starts (Millard's damped fibre); NaN: none.
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m, double fiber_length_m,
+                                            double velocity_guess_m_s = std::numeric_limits<double>::quiet_NaN());
 
 // The fibre length at which tendon and fibre forces balance with the fibre moving at the path's
 // speed along it: a compliant muscle's initial state.
