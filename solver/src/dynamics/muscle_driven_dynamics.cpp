@@ -93,7 +93,8 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
         ws.fiber_velocity_m_s[m] = (muscles::rigid_tendon_fiber_length(mu, l + v * dl) - muscles::rigid_tendon_fiber_length(mu, l)) / dl;
         xdot[sys.fiber_length_index(m)] = ws.fiber_velocity_m_s[m];
       } else if (sys.compliant_tendons) {
-        const auto f = muscles::compliant_tendon_fiber(mu, a, l, x[sys.fiber_length_index(m)]);
+        // The last evaluation's velocity starts an iterating model's solve (Millard's damped fibre).
+        const auto f = muscles::compliant_tendon_fiber(mu, a, l, x[sys.fiber_length_index(m)], ws.fiber_velocity_m_s[m]);
         ws.muscle_force_N[m] = f.force_N;
         ws.fiber_velocity_m_s[m] = f.fiber_velocity_m_s;
         xdot[sys.fiber_length_index(m)] = f.fiber_velocity_m_s;
@@ -158,9 +159,10 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       continue;  // no stiff fibre state; its force-velocity damping is left explicit
     } else if (sys.compliant_tendons) {
       const double lm = x[sys.fiber_length_index(m)], dl = 1e-7 * mu.optimal_fiber_length_m;
-      const auto f0 = muscles::compliant_tendon_fiber(mu, a, L, lm);
-      const auto fl = muscles::compliant_tendon_fiber(mu, a, L, lm + dl);
-      const auto fa = muscles::compliant_tendon_fiber(mu, a + da, L, lm);
+      const double v = ws.fiber_velocity_m_s[m];  // the evaluation at x: a start that needs no step
+      const auto f0 = muscles::compliant_tendon_fiber(mu, a, L, lm, v);
+      const auto fl = muscles::compliant_tendon_fiber(mu, a, L, lm + dl, v);
+      const auto fa = muscles::compliant_tendon_fiber(mu, a + da, L, lm, v);
       jac.dl_dl[m] = (fl.fiber_velocity_m_s - f0.fiber_velocity_m_s) / dl;
       jac.dl_da[m] = (fa.fiber_velocity_m_s - f0.fiber_velocity_m_s) / da;
       jac.dF_dl[m] = (fl.force_N - f0.force_N) / dl;
