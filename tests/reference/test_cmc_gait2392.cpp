@@ -226,7 +226,9 @@ TEST(CmcGait2392, MuscleForcesWithMusclesScaledAsOpenSimScales) {
 // CMC, so the pelvis residual FY carries most of it (measured 663 N of the subject's ~706 N) and every
 // window's residuals exceed their constraints (149 of 149). Held: the tracking (target 3 deg, worst
 // measured 1.66), and regression bounds on FY (700 N) and the mtp angles (measured 7.5 and 15.2 deg,
-// bound 20 deg); the other residuals are reported, not asserted (they follow from FY's gap).
+// bound 20 deg); the other residuals are reported, not asserted (they follow from FY's gap). Its first
+// instant needs the residuals beyond their range, so its compliant muscles start at the rigid-tendon
+// activation estimate: matched to that instant's forces, mtp_r went to 21.4 deg (measured).
 TEST(CmcGait2392, WithoutGrfOnContactSpheres) {
   const std::string pl = refdata::gait2392("pipeline/");
   REQUIRE_REFERENCE(pl + "gait2392_CMC_Tasks.xml");

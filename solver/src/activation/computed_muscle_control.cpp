@@ -309,9 +309,31 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       a_hi[m] = u_max[m];
     }
     solve_forces(t_begin, x);
+    const bool initial_forces_feasible = r.summary.windows_residuals_unbounded == 0;
     r.summary.windows_residuals_unbounded = 0;  // the initial distribution is not a window
     for (int m = 0; m < nm; ++m) x[sys.activation_index(m)] = activation_for_solution(m, u_min[m], u_max[m]);
     set_equilibrium_fibers(t_begin);
+    if (sys.compliant_tendons && initial_forces_feasible) {
+      // Compliant tendons: the activation whose equilibrium fibre carries the solved force (the
+      // rigid-tendon estimate does not: the stretched tendon shortens the fibre). Not where the first
+      // instant needed the residuals beyond their range: those forces are no state the muscles hold.
+      for (int m = 0; m < nm; ++m) {
+        const Muscle& mu = model.muscles[m];
+        if (muscles::has_rigid_tendon(mu)) continue;
+        const double target = sol[m] * f_opt[m], L = ws.geometry.length_m[m], V = ws.geometry.lengthening_speed_m_s[m];
+        auto fiber_at = [&](double a) { return muscles::compliant_equilibrium_fiber_length(mu, a, L, V); };
+        auto force_at = [&](double a) { return muscles::compliant_tendon_fiber(mu, a, L, fiber_at(a)).force_N; };
+        double lo_a = u_min[m], hi_a = u_max[m];  // the force rises with activation
+        if (force_at(lo_a) >= target) hi_a = lo_a;
+        else if (force_at(hi_a) <= target) lo_a = hi_a;
+        for (int i = 0; i < 50 && hi_a - lo_a > 1e-9; ++i) {
+          const double mid = 0.5 * (lo_a + hi_a);
+          (force_at(mid) < target ? lo_a : hi_a) = mid;
+        }
+        x[sys.activation_index(m)] = 0.5 * (lo_a + hi_a);
+        x[sys.fiber_length_index(m)] = fiber_at(x[sys.activation_index(m)]);
+      }
+    }
     control_prev = sol.tail(na);
   }
 
