@@ -210,7 +210,8 @@ double shortest_fiber(const Muscle& m, const Curves& c, const FixedWidthPennatio
 }
 
 // OpenSim's calcDampedNormFiberVelocity: the normalised fibre velocity at which the damped fibre's
-// force along the tendon equals the tendon's; Newton from the inverse force-velocity curve's guess.
+// force along the tendon equals the tendon's; Newton from `guess`, or where that is NaN from the
+// inverse force-velocity curve's.
 // The residual rises strictly with the velocity (fv' >= 0, damping > 0), so the root is unique.
 double damped_norm_fiber_velocity(const Curves& c, double a, double fal, double fpe, double fse, double cos_pen, double guess) {
   const double beta = c.parameters.fiber_damping;
