@@ -269,7 +269,10 @@ TEST(ScaleOut, CancelAndDeleteReachATrialRunningInAnotherProcess) {
   ServerProcess api(data, {"--workers", "0"}, pg.url());
   WorkerProcess worker(data, pg.url(), {"--name", "far", "--heartbeat", "0.2"});
   httplib::Client c("127.0.0.1", api.port());
-  const std::string trc = synthetic_trc(60.0, 8);  // a minute of walking: long enough to stop midway
+  // Ten minutes of walking, so that the cancel and the delete reach the trial midway: a minute of it
+  // now runs in well under a second, and in CI its worker once finished it before its heartbeat saw
+  // the delete (abandoned at publishing, no lease_lost).
+  const std::string trc = synthetic_trc(600.0, 8);
   auto running_on_worker = [&](const std::string& id) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
     while (std::chrono::steady_clock::now() < until) {

@@ -27,14 +27,26 @@ start)
   [ "$(id -u)" -eq 0 ] && chown nobody:nogroup "$data"
   echo "$data" > "$state/pgdata"
   "${as[@]}" "$bin/initdb" -D "$data/db" -U cpgait --auth=trust -E UTF8 --no-sync > "$data/initdb.log"
-  port=""
-  for p in $(shuf -i 20000-59999 -n 100); do
-    if ! (exec 3<>"/dev/tcp/127.0.0.1/$p") 2>/dev/null; then port=$p; break; fi
+  # A port below the kernel's ephemeral range: a port in it can be taken at any moment as the local
+  # end of some client connection (the tests make thousands), and a start there once failed with
+  # "Address already in use". Another test's server may still take the same one first: then retry.
+  low=$(cut -f1 /proc/sys/net/ipv4/ip_local_port_range 2>/dev/null || echo 32768)
+  [ "$low" -gt 11000 ] || low=32768
+  started=""
+  for attempt in 1 2 3 4 5; do
+    port=""
+    for p in $(shuf -i 10000-$((low - 1)) -n 100); do
+      if ! (exec 3<>"/dev/tcp/127.0.0.1/$p") 2>/dev/null; then port=$p; break; fi
+    done
+    [ -n "$port" ] || { echo "no free port"; exit 1; }
+    if ctl -l "$data/server.log" -w -t 60 \
+        -o "-p $port -k $data -c listen_addresses=127.0.0.1 -c max_connections=300 -c fsync=off" start > /dev/null; then
+      started=1
+      break
+    fi
   done
-  [ -n "$port" ] || { echo "no free port"; exit 1; }
+  [ -n "$started" ] || { echo "pg_ctl could not start the server on 5 ports; see $data/server.log"; exit 1; }
   echo "$port" > "$state/port"
-  ctl -l "$data/server.log" -w -t 60 \
-      -o "-p $port -k $data -c listen_addresses=127.0.0.1 -c max_connections=300 -c fsync=off" start > /dev/null
   echo "postgresql://cpgait@127.0.0.1:$port/postgres" > "$state/url"
   echo "PostgreSQL $("$bin/postgres" --version | awk '{print $3}') on 127.0.0.1:$port, data $data"
   ;;
