@@ -14,6 +14,7 @@
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/muscles/activation_dynamics.h"
+#include "cpgait/muscles/fiber_equilibrium.h"
 #include "cpgait/muscles/muscle_model.h"
 #include "cpgait/optim/dual_newton.h"
 
@@ -322,15 +323,9 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         if (muscles::has_rigid_tendon(mu)) continue;
         const double target = sol[m] * f_opt[m], L = ws.geometry.length_m[m], V = ws.geometry.lengthening_speed_m_s[m];
         auto fiber_at = [&](double a) { return muscles::compliant_equilibrium_fiber_length(mu, a, L, V); };
-        auto force_at = [&](double a) { return muscles::compliant_tendon_fiber(mu, a, L, fiber_at(a)).force_N; };
-        double lo_a = u_min[m], hi_a = u_max[m];  // the force rises with activation
-        if (force_at(lo_a) >= target) hi_a = lo_a;
-        else if (force_at(hi_a) <= target) lo_a = hi_a;
-        for (int i = 0; i < 50 && hi_a - lo_a > 1e-9; ++i) {
-          const double mid = 0.5 * (lo_a + hi_a);
-          (force_at(mid) < target ? lo_a : hi_a) = mid;
-        }
-        x[sys.activation_index(m)] = 0.5 * (lo_a + hi_a);
+        // The force rises with activation: the shortfall falls.
+        auto shortfall = [&](double a) { return target - muscles::compliant_tendon_fiber(mu, a, L, fiber_at(a)).force_N; };
+        x[sys.activation_index(m)] = falling_root(shortfall, u_min[m], u_max[m], 1e-9);
         x[sys.fiber_length_index(m)] = fiber_at(x[sys.activation_index(m)]);
       }
     }

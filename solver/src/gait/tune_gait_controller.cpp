@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <mutex>
 
 #include "cpgait/optim/cma_es.h"
@@ -34,6 +35,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     if (model.coordinates[c].is_angle()) rotations.push_back(c);
   std::atomic<int> done{0};
   std::mutex progress_mutex;
+  // The lowest-cost candidate's walk, kept as the candidates run: CMA-ES' best is one of them, so its
+  // walk needs no second simulation for the summary.
+  double best_cost = std::numeric_limits<double>::infinity(), best_walked = 0;
   // One candidate's simulation and score; walked receives the time it walked. The start's errors
   // (the inputs') propagate; a candidate's score as falling at once.
   auto score = [&](const Candidate& k, double* walked, bool rethrow) {
@@ -55,10 +59,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     }
     if (walked) *walked = time_walked;
     const int n = ++done;
-    if (progress) {
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      progress->report(std::min(1.0, static_cast<double>(n) / (t.evaluations + 1)), "tuning the gait controller");
-    }
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    if (cost < best_cost) best_cost = cost, best_walked = time_walked;
+    if (progress) progress->report(std::min(1.0, static_cast<double>(n) / (t.evaluations + 1)), "tuning the gait controller");
     return cost;
   };
   GaitTuningResult result;
@@ -76,8 +79,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   result.summary.cost = result.summary.start_cost;
   if (s.best_value < result.summary.start_cost) best = s.best_x, result.summary.cost = s.best_value;
   const Candidate k = decode(best, start);
-  result.summary.walked_s = result.summary.start_walked_s;
-  if (best != x0) score(k, &result.summary.walked_s, false);  // the winner's walk, for the summary
+  result.summary.walked_s = best != x0 ? best_walked : result.summary.start_walked_s;
   result.cpg = cpg;
   result.cpg.controller = CpgController{k.kp, k.kv, true, false};
   result.cpg.amplitude = cpg.amplitude * k.amplitude_factor;

@@ -1,5 +1,6 @@
 #pragma once
-// The one root finder the muscle models' equilibrium fibre lengths share.
+// The one root finder the muscle models' equilibrium fibre lengths share (and CMC's initial
+// activations, whose equilibrium force rises with activation).
 
 namespace cpgait {
 
