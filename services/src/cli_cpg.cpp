@@ -152,6 +152,7 @@ struct GaitArgs {
   bool no_residuals = false, no_foot_fit = false;
   GaitTuningOptions tuning;
   int tune = 0;
+  std::vector<double> push_force_N;
 };
 
 void run_gait(const GaitArgs& g) {
@@ -164,6 +165,7 @@ void run_gait(const GaitArgs& g) {
     throw InputError(g.model, 0, "contacts", "the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --contacts");
   ReproducedGaitOptions o = g.options;
   o.pelvis_residuals = !g.no_residuals;
+  if (!g.push_force_N.empty()) o.push_force_N = Eigen::Vector3d(g.push_force_N[0], g.push_force_N[1], g.push_force_N[2]);
   const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
   if (g.start >= 0) {
     o.start_time_s = g.start;
@@ -240,10 +242,29 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
   gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
   gait->add_option("--tune", g->tune,
-                   "first tune the controller to walk without residuals: CMA-ES over the reflex gains and the CPG's amplitude, this many "
-                   "simulations on every core; writes PREFIX_cpg_tuned.json, which --cpg then replays")
+                   "first tune the controller to walk without residuals: CMA-ES over the reflex gains, the CPG's amplitude and the "
+                   "balance feedback's gains (trunk on the stance hip, swing-foot placement), this many simulations on every core; "
+                   "writes PREFIX_cpg_tuned.json, which --cpg then replays")
       ->check(CLI::Range(0, 5000));
   gait->add_option("--tune-horizon", g->tuning.horizon_s, "simulated time per tuning candidate, s")->check(CLI::Range(0.5, 30.0))->capture_default_str();
+  gait->add_option("--tune-rounds", g->tuning.rounds, "CMA-ES restarts from the last best, horizons rising evenly to --tune-horizon")
+      ->check(CLI::Range(1, 10))
+      ->capture_default_str();
+  gait->add_option("--tune-speeds", g->tuning.speeds, "speed knobs each tuning candidate walks at (its cost their mean), e.g. 0.8 1 1.2")
+      ->check(CLI::Range(0.2, 5.0))
+      ->capture_default_str();
+  gait->add_option("--stop-at", g->options.stop_time_s, "walk -> stand: begin stopping at this time, s");
+  gait->add_option("--stop-over", g->options.stop_over_s, "walk -> stand: the transition's length, s (default: one cycle)");
+  gait->add_option("--push-time", g->options.push_time_s, "push the pelvis at this time, s (with --push-force)");
+  gait->add_option("--push-force", g->push_force_N, "the push's force at the pelvis' origin, N, ground frame (x y z)")->expected(3);
+  gait->add_option("--push-duration", g->options.push_duration_s, "how long the push lasts, s (impulse: force x duration)")
+      ->check(CLI::Range(0.001, 5.0))
+      ->capture_default_str();
+  gait->add_option("--step-height", g->options.ground_step_m, "a step in the ground, m (negative: down), its edge along ground x")
+      ->check(CLI::Range(-0.2, 0.2));
+  gait->add_option("--step-time", g->options.ground_step_time_s,
+                   "when the step's edge reaches where the pelvis started (carried by a treadmill's belt), s")
+      ->capture_default_str();
   gait->add_option("--reflex-kp", g->options.reflex_kp, "joint-angle reflex gain, excitation per (m x rad)")->capture_default_str();
   gait->add_option("--reflex-kv", g->options.reflex_kv, "joint-speed reflex gain, excitation per (m x rad/s)")->capture_default_str();
   gait->add_option("--tolerance", g->options.integrator_tolerance, "integrator error tolerance (relative and absolute)")

@@ -1,4 +1,5 @@
 // run: every available stage on one trial, as the server runs it; job.json reproduces the run.
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iterator>
@@ -18,9 +19,18 @@ namespace {
 
 class PrintingObserver : public PipelineObserver {
  public:
+  void stage_started(const std::string&) override { started_ = std::chrono::steady_clock::now(); }
+  // To stderr, once a stage has run a second (the gait stage's tuning runs for minutes).
+  void stage_progress(const std::string& stage, double fraction) override {
+    if (std::chrono::steady_clock::now() - started_ < std::chrono::seconds(1)) return;
+    std::fprintf(stderr, "%s %3.0f %%\n", stage.c_str(), 100 * fraction);
+  }
   void stage_finished(const std::string& stage, double seconds, const nlohmann::json& summary) override {
     std::printf("%-3s done in %.3f s: %s\n", stage.c_str(), seconds, json_text(summary).c_str());
   }
+
+ private:
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };
 
 struct RunArgs {

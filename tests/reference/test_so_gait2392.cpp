@@ -438,11 +438,14 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
   }
 }
 
-// Issue 22's tuning stage, on a small budget: CMA-ES over the reflex gains and the CPG's amplitude,
-// without residuals, reflexes on the trial's cycle at the CPG's phase. The tuned controller, stored in
-// the CPG's JSON, replays the walk the tuner scored; it walks longer than the controller it started
-// from (measured 2.16 s -> 3.73 s over a 5 s horizon with 96 simulations; here 24 over 3 s).
-TEST(CpgGait2392, TunedControllerWalksLongerAndReplaysFromTheCpgJson) {
+// Issue 22's autonomous gait, tuned from the fitted CPG alone: no residuals, reflexes on the trial's
+// cycle at the CPG's phase, balance feedback (trunk on the stance hip, swing-foot placement), CMA-ES
+// over the reflex and balance gains and the CPG's amplitude in rounds of rising horizon. The tuned
+// controller, stored in the CPG's JSON, replays the walk the tuner scored. The issue's targets: 10 s
+// without falling, every rotation within 5 deg RMS of the trial's cycle over the first two cycles,
+// the stride within 5 % of the trial's. Measured with this test's 600 simulations (rounds over 5 and
+// 10 s, 108 s on 2 cores): 10 s, 8 strides, worst 4.29 deg (hip_adduction_l), stride 0.2 % off.
+TEST(CpgGait2392, TunedControllerWalksWithoutResidualsAndReplaysFromTheCpgJson) {
   for (const auto& p : subject01_gait_inputs()) REQUIRE_REFERENCE(p);
   const Subject01Cpg& c = subject01_cpg();
   const Subject01Gait& g = subject01_gait();
@@ -450,14 +453,15 @@ TEST(CpgGait2392, TunedControllerWalksLongerAndReplaysFromTheCpgJson) {
   ReproducedGaitOptions o;
   o.start_time_s = g.strikes.front();
   GaitTuningOptions t;
-  t.evaluations = 24;
-  t.horizon_s = 3.0;
+  t.evaluations = 600;
+  t.horizon_s = 10.0;
+  t.rounds = 2;
   const GaitTuningResult tuned = tune_gait_controller(g.m, c.fit.model, g.kin, g.feet, o, t);
   std::printf("[ info ] %s\n", tuned.summary.BriefReport().c_str());
   ASSERT_TRUE(tuned.cpg.controller.has_value());
   EXPECT_FALSE(tuned.cpg.controller->pelvis_residuals);
   EXPECT_LE(tuned.summary.cost, tuned.summary.start_cost);
-  EXPECT_GT(tuned.summary.walked_s, tuned.summary.start_walked_s + 0.2) << "regression bound";
+  EXPECT_GE(tuned.summary.walked_s, t.horizon_s) << "started from " << tuned.summary.start_walked_s << " s";
   // Replayed from the JSON: the same walk.
   const CpgModel replayed = CpgModel::from_json(tuned.cpg.to_json(), "tuned.json");
   ASSERT_TRUE(replayed.controller.has_value());
@@ -468,7 +472,13 @@ TEST(CpgGait2392, TunedControllerWalksLongerAndReplaysFromTheCpgJson) {
   std::printf("[ info ] replayed: %s\n", walk.BriefReport().c_str());
   EXPECT_NEAR(walked, tuned.summary.walked_s, 1e-9);
   EXPECT_FALSE(r.pelvis_residuals);
-  EXPECT_EQ(replayed.controller->reflex_kp, tuned.cpg.controller->reflex_kp);
+  EXPECT_TRUE(r.balance.any());
+  // The walk it makes: strides of the trial's cycle, the rotations on the trial's cycle.
+  EXPECT_GE(walk.heel_strikes_r_s.size(), 8u);
+  EXPECT_GE(walk.heel_strikes_l_s.size(), 8u);
+  ASSERT_GE(walk.heel_strikes_r_s.size(), 2u);
+  EXPECT_NEAR(walk.stride_time_s / c.fit.model.cycle_s, 1.0, 0.05);
+  EXPECT_LT(walk.worst_rotation_rms_rad * 180 / M_PI, 5.0) << walk.worst_rotation;
 }
 
 // The default foot spheres on subject01: level in the default pose (the foot standing flat), and

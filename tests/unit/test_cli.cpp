@@ -348,7 +348,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_FALSE(gait["pelvis_residuals"].get<bool>());
   const nlohmann::json tuned = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_cpg_tuned.json"));
   ASSERT_TRUE(tuned.contains("controller"));
-  EXPECT_EQ(tuned["controller"]["reflex_kp"].get<double>(), gait["tuning"]["reflex_kp"].get<double>());
+  EXPECT_EQ(tuned["controller"]["reflex_kp"].get<double>(), gait["tuning"]["controller"]["reflex_kp"].get<double>());
   const CliRun replay = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
                             "/out/w_ik.mot --duration 0.5 -o " + dir + "/replay");
   ASSERT_EQ(replay.status, 0) << replay.output;

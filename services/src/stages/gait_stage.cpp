@@ -16,6 +16,7 @@ struct GaitStageOptions {
   bool phase_reference = false;
   int tune_evaluations = 0;
   double tune_horizon_s = 5.0;
+  int tune_rounds = 1;
 
   static const OptionFields<GaitStageOptions>& fields() {
     static const OptionFields<GaitStageOptions> f =
@@ -28,10 +29,12 @@ struct GaitStageOptions {
             .boolean("phase_reference", &GaitStageOptions::phase_reference,
                      "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time")
             .integer("tune_evaluations", &GaitStageOptions::tune_evaluations, 0, 5000,
-                     "tune the controller to walk without residuals first: CMA-ES over the reflex gains and the CPG's amplitude, this "
+                     "tune the controller to walk without residuals first: CMA-ES over the reflex and balance gains and the CPG's amplitude, this "
                      "many simulations in parallel (0: no tuning); the tuned CPG is written to _cpg_tuned.json and drives the gait")
             .number("tune_horizon_s", &GaitStageOptions::tune_horizon_s, "s", "simulated time per tuning candidate",
-                    NumberRange{0.5, 30.0, true});
+                    NumberRange{0.5, 30.0, true})
+            .integer("tune_rounds", &GaitStageOptions::tune_rounds, 1, 10,
+                     "CMA-ES restarts, each from the last best, their horizons rising evenly to tune_horizon_s");
     return f;
   }
 };
@@ -82,13 +85,13 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
       GaitTuningOptions to;
       to.evaluations = o.tune_evaluations;
       to.horizon_s = o.tune_horizon_s;
+      to.rounds = o.tune_rounds;
       const GaitTuningResult tuned = tune_gait_controller(model, cpg->model, reference, feet, go, to, trial.progress);
       driving = tuned.cpg;
       trial.write_text(json_text(driving.to_json(), 2) + "\n", "_cpg_tuned.json");
       tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                 {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                {"horizon_s", to.horizon_s}, {"reflex_kp", driving.controller->reflex_kp}, {"reflex_kv", driving.controller->reflex_kv},
-                {"amplitude", driving.amplitude}};
+                {"horizon_s", to.horizon_s}, {"controller", driving.to_json()["controller"]}, {"amplitude", driving.amplitude}};
     }
     if (driving.controller) go = with_controller(*driving.controller, go);  // a tuned CPG walks as it was tuned
     const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, go, trial.progress);

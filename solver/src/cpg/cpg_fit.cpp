@@ -573,7 +573,14 @@ nlohmann::json CpgModel::to_json() const {
     j["controller"] = {{"reflex_kp", controller->reflex_kp},
                        {"reflex_kv", controller->reflex_kv},
                        {"phase_reference", controller->phase_reference},
-                       {"pelvis_residuals", controller->pelvis_residuals}};
+                       {"pelvis_residuals", controller->pelvis_residuals},
+                       {"trunk_kp", controller->trunk_kp},
+                       {"trunk_kv", controller->trunk_kv},
+                       {"foot_placement",
+                        {{"lateral_d", controller->lateral_d},
+                         {"lateral_v_s", controller->lateral_v},
+                         {"sagittal_d", controller->sagittal_d},
+                         {"sagittal_v_s", controller->sagittal_v}}}};
   return j;
 }
 
@@ -629,6 +636,17 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
       k.reflex_kv = c.value("reflex_kv", k.reflex_kv);
       k.phase_reference = c.value("phase_reference", k.phase_reference);
       k.pelvis_residuals = c.value("pelvis_residuals", k.pelvis_residuals);
+      k.trunk_kp = c.value("trunk_kp", k.trunk_kp);
+      k.trunk_kv = c.value("trunk_kv", k.trunk_kv);
+      if (c.contains("foot_placement")) {
+        const auto& fp = c["foot_placement"];
+        k.lateral_d = fp.value("lateral_d", k.lateral_d);
+        k.lateral_v = fp.value("lateral_v_s", k.lateral_v);
+        k.sagittal_d = fp.value("sagittal_d", k.sagittal_d);
+        k.sagittal_v = fp.value("sagittal_v_s", k.sagittal_v);
+      }
+      for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v})
+        if (!std::isfinite(v)) fail("controller", "balance gains must be finite numbers");
       if (!(k.reflex_kp >= 0) || !(k.reflex_kv >= 0)) fail("controller.reflex_kp", "reflex gains must be non-negative");
       m.controller = k;
     }

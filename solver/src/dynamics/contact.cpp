@@ -12,9 +12,15 @@
 
 namespace cpgait {
 
+double ground_height_at(const ContactSet& set, double x_m, double t_s) {
+  if (set.step_height_m == 0) return set.ground_height_m;
+  const double edge = set.step_x_m + set.ground_velocity_m_s.x() * t_s;
+  return set.ground_height_m + set.step_height_m * 0.5 * (1 + std::tanh((x_m - edge) / set.step_edge_m));
+}
+
 Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& set, const Eigen::Vector3d& c,
-                                     const Eigen::Vector3d& v) {
-  const double d = s.radius_m - (c.y() - set.ground_height_m);
+                                     const Eigen::Vector3d& v, double t_s) {
+  const double d = s.radius_m - (c.y() - ground_height_at(set, c.x(), t_s));
   const double eps = set.smoothing_m;
   const double d_pos = 0.5 * (d + std::sqrt(d * d + eps * eps));
   const double rate = -v.y();  // penetration rate
@@ -64,6 +70,12 @@ ContactSet parse_contact_set_json(const std::string& text, const std::string& na
     const auto v = json_field<std::vector<double>>(j, "ground_velocity_m_s", name, "");
     if (v.size() != 3) throw InputError(name, 0, "ground_velocity_m_s", "expected 3 numbers (m/s, ground frame)");
     set.ground_velocity_m_s = {v[0], v[1], v[2]};
+  }
+  if (j.contains("step_height_m")) set.step_height_m = json_field<double>(j, "step_height_m", name, "");
+  if (j.contains("step_x_m")) set.step_x_m = json_field<double>(j, "step_x_m", name, "");
+  if (j.contains("step_edge_m")) {
+    set.step_edge_m = json_field<double>(j, "step_edge_m", name, "");
+    if (!(set.step_edge_m > 0 && set.step_edge_m < 1)) throw InputError(name, 0, "step_edge_m", "expected 0 to 1 m");
   }
   ContactSphere defaults;
   if (j.contains("defaults")) {

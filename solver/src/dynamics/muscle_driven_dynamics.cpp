@@ -51,6 +51,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   kinematics_values(fd.dynamics, fd.kinematics, fd.S);
   crba(model, fd.kinematics, fd.S, fd.M);
 
+  ws.time_s = t;
   // External loads: measured, then contact.
   for (auto& e : ws.external) e.setZero();
   if (sys.loads) {
@@ -69,7 +70,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       // full friction against a foot the recorded motion rolls without slipping.
       const Eigen::Vector3d point = centre - s.radius_m * Eigen::Vector3d::UnitY();
       const Eigen::Vector3d v = point_velocity_in_ground(fd.S, ws.sphere_coordinates[i], point, u);
-      const Eigen::Vector3d f = sphere_contact_force(s, set, centre, v);
+      const Eigen::Vector3d f = sphere_contact_force(s, set, centre, v, t);
       ws.contact_force_N[i] = f;
       ws.contact_point_m[i] = point;
       ws.external[s.body] += spatial_force(f, point);
@@ -205,11 +206,11 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const Eigen::Vector3d v = point_velocity_in_ground(ws.fd.S, ws.sphere_coordinates[i], p, u);
       Eigen::Matrix3d C;
       const double dv = 1e-6;
-      for (int j = 0; j < 3; ++j) C.col(j) = -(sphere_contact_force(s, set, c, v + dv * Eigen::Vector3d::Unit(j)) - f0) / dv;
+      for (int j = 0; j < 3; ++j) C.col(j) = -(sphere_contact_force(s, set, c, v + dv * Eigen::Vector3d::Unit(j), ws.time_s) - f0) / dv;
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (C + C.transpose()));
       const Eigen::Matrix3d C_psd = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
       const double dp = 1e-7;
-      const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v).y() - f0.y()) / dp);
+      const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v, ws.time_s).y() - f0.y()) / dp);
       J.setZero();
       for (int q : ws.sphere_coordinates[i]) J.col(q) = point_velocity_column(ws.fd.S, q, p);
       jac.damping.noalias() += J.transpose() * C_psd * J;

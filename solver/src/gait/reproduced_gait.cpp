@@ -11,6 +11,7 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
+#include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/muscle_model.h"
 
@@ -20,21 +21,44 @@ namespace {
 
 constexpr double kContactThresholdN = 20.0;
 
-int side_of(const std::string& name) {
-  if (name.size() >= 2 && name.compare(name.size() - 2, 2, "_r") == 0) return 0;
-  if (name.size() >= 2 && name.compare(name.size() - 2, 2, "_l") == 0) return 1;
-  return -1;
-}
-
-// Times a signal rises through a threshold (linear interpolation between samples).
-std::vector<double> rising_through(const std::vector<double>& t, const std::vector<double>& v, double threshold, double min_gap_s) {
+// Times a signal rises through a threshold (linear interpolation between samples) and stays above it
+// for hold_s: a foot's landing, not a toe brushing the ground.
+std::vector<double> rising_through(const std::vector<double>& t, const std::vector<double>& v, double threshold, double min_gap_s,
+                                   double hold_s) {
   std::vector<double> out;
   for (std::size_t i = 1; i < v.size(); ++i)
     if (v[i - 1] < threshold && v[i] >= threshold) {
       const double tc = t[i - 1] + (threshold - v[i - 1]) / (v[i] - v[i - 1]) * (t[i] - t[i - 1]);
-      if (out.empty() || tc - out.back() >= min_gap_s) out.push_back(tc);
+      std::size_t j = i;
+      while (j < v.size() && v[j] >= threshold && t[j] - tc < hold_s) ++j;
+      const bool held = j == v.size() || v[j] >= threshold;
+      if (held && (out.empty() || tc - out.back() >= min_gap_s)) out.push_back(tc);
     }
   return out;
+}
+
+// Whether point p lies inside the convex hull of pts (2-D; Andrew's monotone chain).
+bool inside_convex_hull(std::vector<Eigen::Vector2d> pts, const Eigen::Vector2d& p) {
+  if (pts.size() < 3) return false;
+  std::sort(pts.begin(), pts.end(), [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+  };
+  std::vector<Eigen::Vector2d> hull(2 * pts.size());
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0) --k;
+    hull[k++] = pts[i];
+  }
+  for (std::size_t i = pts.size() - 1, t = k + 1; i-- > 0;) {
+    while (k >= t && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0) --k;
+    hull[k++] = pts[i];
+  }
+  hull.resize(k - 1);
+  if (hull.size() < 3) return false;
+  for (std::size_t i = 0; i < hull.size(); ++i)
+    if (cross(hull[i], hull[(i + 1) % hull.size()], p) < 0) return false;
+  return true;
 }
 
 }  // namespace
@@ -50,6 +74,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   // keep their length, so the belt must move them back that much faster.
   ContactSet contacts = contacts_in;
   contacts.ground_velocity_m_s *= o.speed;
+  const Eigen::Vector3d belt_velocity = contacts.ground_velocity_m_s;
 
   CpgModel cpg = cpg_in;
   cpg.speed = cpg_in.speed * o.speed;
@@ -127,6 +152,27 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     }
     phase_table = cpg_phase_table(cpg_in);
   }
+  // The standing pose for walk -> stand: the cycle's mean (over the template, or the reference's first
+  // cycle after the heel strike).
+  Eigen::VectorXd q_stand = Eigen::VectorXd::Zero(nq);
+  if (o.stop_time_s >= 0) {
+    if (!template_q.empty()) {
+      for (const auto& q : template_q) q_stand += q / kPhases;
+    } else {
+      Eigen::VectorXd q(nq), u(nq), a(nq);
+      for (int j = 0; j < kPhases; ++j) {
+        trajectories_at(ref, std::min(ref_end, o.start_time_s + static_cast<double>(j) / kPhases * cpg_in.cycle_s), q, u, a);
+        q_stand += q / kPhases;
+      }
+    }
+  }
+  const double stop_over_s = o.stop_over_s > 0 ? o.stop_over_s : cpg_in.cycle_s / (cpg_in.speed * o.speed);
+  // The walk's share at time t: 1 before the stop, 0 after it, smoothly between.
+  auto walking_share = [&](double t) {
+    if (o.stop_time_s < 0 || t <= o.stop_time_s) return 1.0;
+    const double s = std::min(1.0, (t - o.stop_time_s) / stop_over_s);
+    return 1.0 - s * s * (3 - 2 * s);
+  };
   // The template at a phase (linear between samples, round the cycle), rates in simulated time; the
   // pelvis translations keep the time-indexed reference's.
   std::vector<char> root_translation(static_cast<std::size_t>(nq), 0);
@@ -158,6 +204,12 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   reference_at(tau0, q_ref, u_ref, a_ref);
   x.head(nq) = q_ref;
   x.segment(nq, nq) = u_ref;
+  int pelvis_body = 0;
+  for (const auto& j : model.joints)
+    if (j.parent_body == 0) {
+      pelvis_body = j.child_body;
+      break;
+    }
   MatsuokaState neurons = cpg.start;
   MatsuokaScratch scratch;
   matsuoka_prepare(network, scratch);
@@ -192,23 +244,40 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
                                                                          : -1;
   const double start_height = height_coordinate >= 0 ? x[height_coordinate] : 0.0;
 
-  // The passive joints (options), the root's aside.
-  std::vector<int> passive;
-  for (int c = 0; c < nq; ++c)
-    if (!o.passive_coordinate_prefix.empty() && std::find(root.begin(), root.end(), c) == root.end() &&
-        model.coordinates[c].name.rfind(o.passive_coordinate_prefix, 0) == 0)
-      passive.push_back(c);
-
+  // The passive joints, the root's aside: those the options name (their spring-damper towards the
+  // default value), and those no muscle crosses (moment arms at the start), which nothing else would
+  // hold: as a locked joint would, a critically damped 5 Hz spring-damper (from the mass matrix'
+  // diagonal) towards the trial's mean. Without it gait10dof18musc's unmuscled lumbar joint swung the
+  // torso 164 deg RMS off the trial; with the toes' 300 N m/rad and 0.5 N m s/rad 30 deg - measured.
+  struct PassiveJoint {
+    int c;
+    double stiffness, damping, rest;
+  };
+  std::vector<PassiveJoint> passive;
+  for (int c = 0; c < nq; ++c) {
+    if (std::find(root.begin(), root.end(), c) != root.end() || model.coordinates[c].locked ||
+        std::any_of(model.couplers.begin(), model.couplers.end(), [c](const CoordinateCoupler& k) { return k.dependent == c; }))
+      continue;
+    if (!o.passive_coordinate_prefix.empty() && model.coordinates[c].name.rfind(o.passive_coordinate_prefix, 0) == 0) {
+      passive.push_back({c, o.passive_stiffness_Nm_per_rad, o.passive_damping_Nms_per_rad, model.coordinates[c].default_value});
+    } else if (nm > 0 && ws.geometry.moment_arm_m.col(c).cwiseAbs().maxCoeff() == 0.0) {
+      const double w = 2 * M_PI * 5.0, inertia = ws.fd.M(c, c);
+      passive.push_back({c, w * w * inertia, 2 * w * inertia, ref.q.col(c).mean()});
+    }
+  }
+  // The push, as generalized forces at the interval's start.
+  Eigen::VectorXd tau_push = Eigen::VectorXd::Zero(nq);
+  KinematicsWorkspace<double> push_kin(model);
+  MotionSubspace push_S(model);
   Eigen::VectorXd tau_root = Eigen::VectorXd::Zero(nq);  // the residuals, as generalized forces
   Eigen::MatrixXd root_columns = Eigen::MatrixXd::Zero(nq, static_cast<Eigen::Index>(root.size()));  // picks the root's
   for (std::size_t j = 0; j < root.size(); ++j) root_columns(root[j], static_cast<Eigen::Index>(j)) = 1.0;
   Eigen::VectorXd tau_extra(nq);
   // The residuals and the passive joints' torques, as generalized forces at state y.
   auto extra_forces = [&](const Eigen::VectorXd& y) -> const Eigen::VectorXd& {
-    if (o.pelvis_residuals) tau_extra = tau_root;
-    else tau_extra.setZero();
-    for (int c : passive)
-      tau_extra[c] -= o.passive_stiffness_Nm_per_rad * (y[c] - model.coordinates[c].default_value) + o.passive_damping_Nms_per_rad * y[nq + c];
+    if (o.pelvis_residuals) tau_extra = tau_root + tau_push;
+    else tau_extra = tau_push;
+    for (const PassiveJoint& p : passive) tau_extra[p.c] -= p.stiffness * (y[p.c] - p.rest) + p.damping * y[nq + p.c];
     return tau_extra;
   };
   // They enter each evaluation's joint torques, so one solve with the mass matrix serves both.
@@ -237,9 +306,9 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     if (o.pelvis_residuals) f0.segment(nq, nq) += ws.fd.llt.solve(tau_root);
     // The passive joints' spring-damper in the W matrix too: on the light toes it is stiff (damping
     // over inertia ~2,500 /s), and left explicit it bounded the step size.
-    for (int c : passive) {
-      jac.damping(c, c) += o.passive_damping_Nms_per_rad;
-      jac.stiffness(c, c) += o.passive_stiffness_Nm_per_rad;
+    for (const PassiveJoint& p : passive) {
+      jac.damping(p.c, p.c) += p.damping;
+      jac.stiffness(p.c, p.c) += p.stiffness;
     }
   };
   auto w_solve = [&](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) { muscle_driven_w_solve(sys, jac, gh, rhs, k); };
@@ -247,10 +316,36 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   ro.relative_tolerance = ro.absolute_tolerance = o.integrator_tolerance;
   ro.max_step_s = o.control_interval_s;
 
+  // Balance feedback: the legs, the reference pose's kinematics, the reference's mean pelvis velocity.
+  const SimbiconLegs legs = o.balance.any() ? simbicon_legs(model, contacts) : SimbiconLegs{};
+  if (o.balance.any() && !legs.valid())
+    r.warnings.push_back("no balance feedback: model " + model.name + " has no hips (pelvis children named *_r, *_l) or no feet (contact spheres named *_r, *_l)");
+  KinematicsWorkspace<double> reference_kin(model);
+  Eigen::Vector3d pelvis_velocity_ref = Eigen::Vector3d::Zero(), pelvis_start = Eigen::Vector3d::Zero();
+  {
+    const double ta = ref.time_s.front(), tb = ref.time_s.back();
+    Eigen::VectorXd qa(nq), qb(nq), ua(nq), aa(nq);
+    trajectories_at(ref, ta, qa, ua, aa);
+    trajectories_at(ref, tb, qb, ua, aa);
+    forward_kinematics(model, qa.data(), reference_kin);
+    const Eigen::Vector3d pa = reference_kin.body_in_ground[pelvis_body].translation_m;
+    forward_kinematics(model, qb.data(), reference_kin);
+    if (tb > ta) pelvis_velocity_ref = (reference_kin.body_in_ground[pelvis_body].translation_m - pa) / (tb - ta) * o.speed;
+    forward_kinematics(model, x.data(), reference_kin);
+    pelvis_start = reference_kin.body_in_ground[pelvis_body].translation_m;
+  }
+  if (o.ground_step_m != 0) {
+    contacts.step_height_m = o.ground_step_m;
+    contacts.step_x_m = pelvis_start.x() + (pelvis_velocity_ref.x() - contacts.ground_velocity_m_s.x()) * o.ground_step_time_s;
+  }
+  Eigen::VectorXd e_pelvis(static_cast<Eigen::Index>(legs.pelvis_rotations.size())), ed_pelvis(e_pelvis.size());
+
   const double dt = o.control_interval_s;
   const double body_mass_kg = model.total_mass_kg();
   const int steps = static_cast<int>(std::lround(o.duration_s / dt));
   std::vector<Eigen::VectorXd> rec_q, rec_ref, rec_res, rec_exc, rec_contact;
+  std::vector<double> rec_pelvis_speed;
+  std::vector<char> rec_com_supported;
   Eigen::VectorXd u_in(network.size()), sig(signals.size());
   for (int k = 0; k <= steps; ++k) {
     if (progress && progress->cancelled()) throw std::runtime_error("reproduced gait cancelled");
@@ -258,6 +353,22 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     const double tau = tau0 + std::min(t, tracked_until) * o.speed;
     reference_at(tau, q_ref, u_ref, a_ref);
     if (o.phase_indexed_reference) template_at(cpg_phase(phase_table, neurons), q_ref, u_ref, a_ref);
+    const double walking = walking_share(t);
+    if (walking < 1) {
+      for (int c = 0; c < nq; ++c)
+        if (!root_translation[static_cast<std::size_t>(c)]) q_ref[c] = walking * q_ref[c] + (1 - walking) * q_stand[c];
+      u_ref *= walking;
+      a_ref *= walking;
+      contacts.ground_velocity_m_s = walking * belt_velocity;
+    }
+    // The push over this interval, at the pelvis' origin now.
+    tau_push.setZero();
+    if (o.push_time_s >= 0 && t >= o.push_time_s - 1e-9 && t < o.push_time_s + o.push_duration_s - 1e-9) {
+      forward_kinematics(model, x.data(), push_kin);
+      motion_subspace(model, x.data(), push_kin, push_S);
+      const Eigen::Vector3d p = push_kin.body_in_ground[pelvis_body].translation_m;
+      for (int c : root) tau_push[c] = point_velocity_column(push_S, c, p).dot(o.push_force_N);
+    }
     // Forces at the current state without residuals: contact, muscles, geometry for the reflexes.
     tau_root.setZero();
     f(t, x, xdot);  // the passive joints' torques included
@@ -304,6 +415,22 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     rec_res.push_back(res);
     rec_exc.push_back(excitation);
     rec_contact.push_back(contact_row);
+    if (o.stop_time_s >= 0) {
+      // Standing: the pelvis' horizontal speed over the ground, the centre of mass over the support.
+      const auto& kin = ws.fd.kinematics;
+      const Eigen::Vector3d p = kin.body_in_ground[pelvis_body].translation_m;
+      Eigen::Vector3d v = Eigen::Vector3d::Zero();
+      for (int c : root) v += point_velocity_column(ws.fd.S, c, p) * x[nq + c];
+      rec_pelvis_speed.push_back(std::hypot(v.x(), v.z()));
+      Eigen::Vector3d com = Eigen::Vector3d::Zero();
+      for (std::size_t b = 1; b < model.bodies.size(); ++b)
+        com += model.bodies[b].mass_kg * (kin.body_in_ground[b].rotation * model.bodies[b].com_m + kin.body_in_ground[b].translation_m);
+      com /= body_mass_kg;
+      std::vector<Eigen::Vector2d> support;
+      for (std::size_t sp = 0; sp < contacts.spheres.size(); ++sp)
+        if (ws.contact_force_N[sp].y() > kContactThresholdN) support.emplace_back(ws.contact_point_m[sp].x(), ws.contact_point_m[sp].z());
+      rec_com_supported.push_back(inside_convex_hull(support, Eigen::Vector2d(com.x(), com.z())));
+    }
     if (r.fell_at_s < 0 && height_coordinate >= 0 && x[height_coordinate] < o.fall_height_fraction * start_height) {
       r.fell_at_s = t;
       break;
@@ -323,8 +450,17 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     u_in = signals.empty() ? Eigen::VectorXd::Zero(network.size()) : Eigen::VectorXd(cpg.feedback_gains * sig);
     matsuoka_step(network, neurons, dt, u_in, scratch);
     cpg_excitation_now();
+    if (walking < 1)
+      for (int m = 0; m < nm; ++m) excitation[m] = model.muscles[m].min_control + walking * (excitation[m] - model.muscles[m].min_control);
     if (o.reflex_kp != 0 || o.reflex_kv != 0) {
       Eigen::VectorXd e = q_ref - x.head(nq), ed = u_ref - x.segment(nq, nq);
+      if (legs.valid()) {
+        forward_kinematics(model, q_ref.data(), reference_kin);
+        for (std::size_t i = 0; i < legs.pelvis_rotations.size(); ++i)
+          e_pelvis[static_cast<Eigen::Index>(i)] = e[legs.pelvis_rotations[i]], ed_pelvis[static_cast<Eigen::Index>(i)] = ed[legs.pelvis_rotations[i]];
+        simbicon_balance_feedback(contacts, legs, o.balance, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), reference_kin, e_pelvis,
+                                  ed_pelvis, walking * pelvis_velocity_ref, ws.contact_force_N, kContactThresholdN, e, ed);
+      }
       for (int c : root) e[c] = ed[c] = 0;
       const Eigen::VectorXd drive = ws.geometry.moment_arm_m * (o.reflex_kp * e + o.reflex_kv * ed);
       for (int m = 0; m < nm; ++m)
@@ -368,7 +504,9 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       r.worst_rotation_rms_rad = r.tracking_rms[c];
       r.worst_rotation = model.coordinates[c].name;
     }
-  // Heel strikes: a foot's spheres pressing through the threshold (at least 0.4 s apart).
+  // Heel strikes: a foot's spheres pressing through the threshold and bearing load for a fifth of a
+  // cycle, at least 0.4 s apart. Without the hold, toes touching down for 40-80 ms just after toe-off
+  // counted as strikes and halved subject01's stride - measured.
   std::vector<double> load[2];
   for (int i = 0; i < ns; ++i) {
     double side_load[2] = {0, 0};
@@ -379,8 +517,9 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     load[0].push_back(side_load[0]);
     load[1].push_back(side_load[1]);
   }
-  r.heel_strikes_r_s = rising_through(r.time_s, load[0], kContactThresholdN, 0.4);
-  r.heel_strikes_l_s = rising_through(r.time_s, load[1], kContactThresholdN, 0.4);
+  const double stance_hold_s = 0.2 * cpg_in.cycle_s / (cpg_in.speed * o.speed);
+  r.heel_strikes_r_s = rising_through(r.time_s, load[0], kContactThresholdN, 0.4, stance_hold_s);
+  r.heel_strikes_l_s = rising_through(r.time_s, load[1], kContactThresholdN, 0.4, stance_hold_s);
   // Strides of the right foot (the CPG's cycle): time, and the pelvis' horizontal travel.
   const int tx = model.coordinate_index("pelvis_tx"), tz = model.coordinate_index("pelvis_tz");
   auto pelvis_xz = [&](double t) {
@@ -389,7 +528,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   };
   const auto& hs = r.heel_strikes_r_s;
   // On a treadmill the distance walked is the belt's travel plus the pelvis' drift over it.
-  const Eigen::Vector2d belt(contacts.ground_velocity_m_s.x(), contacts.ground_velocity_m_s.z());
+  const Eigen::Vector2d belt(belt_velocity.x(), belt_velocity.z());
   auto walked = [&](double t0, double t1) { return (pelvis_xz(t1) - pelvis_xz(t0) - belt * (t1 - t0)).norm(); };
   if (hs.size() >= 2) {
     r.stride_time_s = (hs.back() - hs.front()) / (hs.size() - 1);
@@ -397,6 +536,16 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.speed_m_s = r.stride_length_m / r.stride_time_s;
   }
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
+  if (o.stop_time_s >= 0 && r.fell_at_s < 0 && !rec_pelvis_speed.empty()) {
+    int i = static_cast<int>(rec_pelvis_speed.size());
+    while (i > 0 && rec_pelvis_speed[static_cast<std::size_t>(i - 1)] < 0.1 && r.time_s[static_cast<std::size_t>(i - 1)] >= o.stop_time_s) --i;
+    if (i < static_cast<int>(rec_pelvis_speed.size())) {
+      r.stopped_at_s = r.time_s[static_cast<std::size_t>(i)];
+      int j = i;
+      while (j < static_cast<int>(rec_com_supported.size()) && rec_com_supported[static_cast<std::size_t>(j)]) ++j;
+      r.stood_s = r.time_s[static_cast<std::size_t>(j - (j > i ? 1 : 0))] - r.stopped_at_s;
+    }
+  }
   if (o.pelvis_residuals && ns > 0) {
     double force = 0, moment = 0;
     for (int i = 0; i < ns; ++i) {
@@ -420,6 +569,7 @@ ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOpti
   o.reflex_kv = c.reflex_kv;
   o.phase_indexed_reference = c.phase_reference;
   o.pelvis_residuals = c.pelvis_residuals;
+  o.balance = {c.trunk_kp, c.trunk_kv, c.lateral_d, c.lateral_v, c.sagittal_d, c.sagittal_v};
   return o;
 }
 
@@ -434,7 +584,12 @@ std::string ReproducedGaitResult::BriefReport() const {
                 worst_rotation_rms_rad * 180 / M_PI, mean_residual_force_percent_bw, mean_residual_moment_Nm,
                 fell_at_s >= 0 ? ("fell at " + std::to_string(fell_at_s) + " s after " + std::to_string(distance_m) + " m").c_str()
                                : ("walked " + std::to_string(distance_m) + " m").c_str());
-  return buf;
+  std::string out = buf;
+  if (stopped_at_s >= 0) {
+    std::snprintf(buf, sizeof buf, "; came to rest at %.2f s and stood %.2f s with the centre of mass over the feet", stopped_at_s, stood_s);
+    out += buf;
+  }
+  return out;
 }
 
 Storage reproduced_gait_motion_table(const Model& model, const ReproducedGaitResult& r) {
@@ -462,6 +617,7 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   j["stride_length_m"] = r.stride_length_m;
   j["speed_m_s"] = r.speed_m_s;
   j["distance_m"] = r.distance_m;
+  if (r.stopped_at_s >= 0) j["stand"] = {{"stopped_at_s", r.stopped_at_s}, {"stood_s", r.stood_s}};
   j["fell_at_s"] = r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr);
   j["pelvis_residual_force_percent_bw"] = r.mean_residual_force_percent_bw;
   j["pelvis_residual_moment_Nm"] = r.mean_residual_moment_Nm;

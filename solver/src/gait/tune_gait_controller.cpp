@@ -6,22 +6,46 @@
 #include <cstdio>
 #include <limits>
 #include <mutex>
+#include <stdexcept>
 
 #include "cpgait/optim/cma_es.h"
 
 namespace cpgait {
 namespace {
 
-// The searched parameters: log(kp / kp0), log(kv / kv0), and the amplitude's factor 1 + 0.3 tanh(p2)
-// (a bounded change: the CPG's patterns are the trial's).
+// The searched parameters: log(kp / kp0), log(kv / kv0), the amplitude's factor 1 + 0.3 tanh(p2) (a
+// bounded change: the CPG's patterns are the trial's), then the balance gains (simbicon_balance.h) as
+// the start's plus these steps per unit: trunk shares 1, foot placement 0.3 m/m and 0.1 s.
 constexpr double kAmplitudeRange = 0.3;
+constexpr int kParameters = 9;
+const double kBalanceStep[6] = {1.0, 1.0, 0.3, 0.1, 0.3, 0.1};
 
 struct Candidate {
-  double kp, kv, amplitude_factor;
+  CpgController controller;
+  double amplitude_factor;
 };
 
 Candidate decode(const Eigen::VectorXd& p, const CpgController& start) {
-  return {start.reflex_kp * std::exp(p[0]), start.reflex_kv * std::exp(p[1]), 1.0 + kAmplitudeRange * std::tanh(p[2])};
+  Candidate k{start, 1.0 + kAmplitudeRange * std::tanh(p[2])};
+  k.controller.reflex_kp = start.reflex_kp * std::exp(p[0]);
+  k.controller.reflex_kv = start.reflex_kv * std::exp(p[1]);
+  double* balance[6] = {&k.controller.trunk_kp, &k.controller.trunk_kv, &k.controller.lateral_d,
+                        &k.controller.lateral_v, &k.controller.sagittal_d, &k.controller.sagittal_v};
+  for (int i = 0; i < 6; ++i) *balance[i] += kBalanceStep[i] * p[3 + i];
+  k.controller.phase_reference = true;
+  k.controller.pelvis_residuals = false;
+  return k;
+}
+
+// Where a search begins for a CPG without a controller: the default reflex and balance gains of the
+// order the searches found on subject01 (trunk 2.2-3.2 / 2.8-3.6, foot placement across 0.3-0.7 m/m
+// and 0.1-0.3 s, along 0.7-0.8 m/m and about 0 s), each a few of the search's steps from zero.
+CpgController untuned_controller() {
+  CpgController k;
+  k.trunk_kp = k.trunk_kv = 2.0;
+  k.lateral_d = 0.3, k.lateral_v = 0.1;
+  k.sagittal_d = 0.5, k.sagittal_v = 0.0;
+  return k;
 }
 
 }  // namespace
@@ -29,60 +53,91 @@ Candidate decode(const Eigen::VectorXd& p, const CpgController& start) {
 GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& contacts,
                                       const ReproducedGaitOptions& base, const GaitTuningOptions& t, Progress* progress) {
   const auto t0 = std::chrono::steady_clock::now();
-  const CpgController start = cpg.controller.value_or(CpgController{});
+  if (t.speeds.empty()) throw std::invalid_argument("tune_gait_controller: no speeds to walk at");
+  if (t.rounds < 1) throw std::invalid_argument("tune_gait_controller: rounds must be at least 1");
   std::vector<int> rotations;
   for (int c = 0; c < model.num_coordinates(); ++c)
     if (model.coordinates[c].is_angle()) rotations.push_back(c);
   std::atomic<int> done{0};
   std::mutex progress_mutex;
-  // The lowest-cost candidate's walk, kept as the candidates run: CMA-ES' best is one of them, so its
-  // walk needs no second simulation for the summary.
+  CpgModel working = cpg;  // the best so far: its controller and amplitude
+  working.controller = cpg.controller.value_or(untuned_controller());
+  double horizon_s = t.horizon_s;
+  // The lowest-cost candidate's walk in this round, kept as the candidates run: CMA-ES' best is one
+  // of them, so its walk needs no second simulation.
   double best_cost = std::numeric_limits<double>::infinity(), best_walked = 0;
-  // One candidate's simulation and score; walked receives the time it walked. The start's errors
-  // (the inputs') propagate; a candidate's score as falling at once.
+  // One candidate's simulations and score; walked receives the shortest time it walked. The start's
+  // errors (the inputs') propagate; a candidate's score as falling at once.
   auto score = [&](const Candidate& k, double* walked, bool rethrow) {
-    ReproducedGaitOptions o = with_controller(CpgController{k.kp, k.kv, true, false}, base);
-    o.duration_s = t.horizon_s;
-    o.amplitude = base.amplitude * k.amplitude_factor;
-    double cost = t.fall_weight;
-    double time_walked = 0;
-    try {
-      const ReproducedGaitResult g = reproduce_gait(model, cpg, reference, contacts, o);
-      time_walked = g.fell_at_s < 0 ? t.horizon_s : g.fell_at_s;
-      double tracking = 0;
-      for (int c : rotations) tracking += g.tracking_rms[c];
-      tracking /= std::max<std::size_t>(1, rotations.size());
-      const double effort = g.excitations.size() ? g.excitations.array().square().mean() : 0.0;
-      cost = t.fall_weight * (t.horizon_s - time_walked) / t.horizon_s + t.tracking_weight * tracking + t.effort_weight * effort;
-    } catch (const std::exception&) {
-      if (rethrow) throw;
+    double cost = 0, time_walked = horizon_s;
+    for (double speed : t.speeds) {
+      ReproducedGaitOptions o = with_controller(k.controller, base);
+      o.duration_s = horizon_s;
+      o.amplitude = base.amplitude * k.amplitude_factor;
+      o.speed = base.speed * speed;
+      double cost_here = t.fall_weight, walked_here = 0;
+      try {
+        const ReproducedGaitResult g = reproduce_gait(model, working, reference, contacts, o);
+        walked_here = g.fell_at_s < 0 ? horizon_s : g.fell_at_s;
+        double tracking = 0, worst = 0;
+        for (int c : rotations) tracking += g.tracking_rms[c], worst = std::max(worst, g.tracking_rms[c]);
+        tracking = tracking / static_cast<double>(std::max<std::size_t>(1, rotations.size())) + worst;
+        const double effort = g.excitations.size() ? g.excitations.array().square().mean() : 0.0;
+        // No two heel strikes of the CPG's foot: as far off as a stride twice the cycle.
+        const double cycle_s = cpg.cycle_s / (cpg.speed * o.speed);
+        const double stride_error = g.stride_time_s > 0 ? std::abs(g.stride_time_s / cycle_s - 1.0) : 1.0;
+        cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s + t.tracking_weight * tracking +
+                    t.effort_weight * effort + t.stride_weight * stride_error;
+      } catch (const std::exception&) {
+        if (rethrow) throw;
+      }
+      cost += cost_here / static_cast<double>(t.speeds.size());
+      time_walked = std::min(time_walked, walked_here);
     }
     if (walked) *walked = time_walked;
     const int n = ++done;
     std::lock_guard<std::mutex> lock(progress_mutex);
     if (cost < best_cost) best_cost = cost, best_walked = time_walked;
-    if (progress) progress->report(std::min(1.0, static_cast<double>(n) / (t.evaluations + 1)), "tuning the gait controller");
+    if (progress) progress->report(std::min(1.0, static_cast<double>(n) / (t.evaluations + t.rounds + 1)), "tuning the gait controller");
     return cost;
   };
   GaitTuningResult result;
-  const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(3);
-  result.summary.start_cost = score(decode(x0, start), &result.summary.start_walked_s, true);
-  CmaEsOptions co;
-  co.initial_sigma = 0.5;
-  co.max_evaluations = t.evaluations;
-  co.num_threads = t.num_threads;
-  co.seed = t.seed;
-  co.lower = Eigen::Vector3d(-3.0, -3.0, -3.0);  // gains from 1/20 of the start's ...
-  co.upper = Eigen::Vector3d(4.0, 3.0, 3.0);     // ... to 55 (kp) and 20 (kv) times
-  const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, start), nullptr, false); }, x0, co);
-  Eigen::VectorXd best = x0;
-  result.summary.cost = result.summary.start_cost;
-  if (s.best_value < result.summary.start_cost) best = s.best_x, result.summary.cost = s.best_value;
-  const Candidate k = decode(best, start);
-  result.summary.walked_s = best != x0 ? best_walked : result.summary.start_walked_s;
-  result.cpg = cpg;
-  result.cpg.controller = CpgController{k.kp, k.kv, true, false};
-  result.cpg.amplitude = cpg.amplitude * k.amplitude_factor;
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(kParameters);
+  // The start, scored over the whole horizon for the summary.
+  result.summary.start_cost = score(decode(x0, *working.controller), &result.summary.start_walked_s, true);
+  double cost = result.summary.start_cost, walked = result.summary.start_walked_s;
+  for (int round = 0; round < t.rounds; ++round) {
+    horizon_s = t.horizon_s * (round + 1) / t.rounds;
+    const CpgController from = *working.controller;
+    best_cost = std::numeric_limits<double>::infinity();
+    double round_start_walked = walked;
+    const double round_start_cost = t.rounds == 1 ? cost : score(decode(x0, from), &round_start_walked, true);
+    CmaEsOptions co;
+    co.initial_sigma = 0.5;
+    co.max_evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
+    co.num_threads = t.num_threads;
+    co.seed = t.seed + static_cast<unsigned long long>(round);
+    co.lower = Eigen::VectorXd::Constant(kParameters, -3.0);  // gains from 1/20 of the start's ...
+    co.upper = Eigen::VectorXd::Constant(kParameters, 3.0);   // ... to 20 times; balance steps +-3
+    co.upper[0] = 4.0;                                         // kp to 55 times
+    const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, from), nullptr, false); }, x0, co);
+    cost = round_start_cost, walked = round_start_walked;
+    if (s.best_value < round_start_cost) {
+      const Candidate k = decode(s.best_x, from);
+      working.controller = k.controller;
+      working.amplitude *= k.amplitude_factor;
+      cost = s.best_value, walked = best_walked;
+    }
+  }
+  // Over the whole horizon the start may still score better than the rounds' result.
+  if (cost > result.summary.start_cost) {
+    working = cpg;
+    working.controller = cpg.controller.value_or(untuned_controller());
+    cost = result.summary.start_cost, walked = result.summary.start_walked_s;
+  }
+  result.summary.cost = cost;
+  result.summary.walked_s = walked;
+  result.cpg = working;
   result.summary.evaluations = done.load();
   result.summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

@@ -28,6 +28,9 @@ struct CpgController {
   double reflex_kp = 100, reflex_kv = 10;  // joint reflex, excitation per (m x rad) and per (m x rad/s)
   bool phase_reference = true;             // reflex targets from the trial's cycle at the CPG's phase
   bool pelvis_residuals = false;           // tuned to walk without them
+  // Balance feedback (simbicon_balance.h): stance-hip trunk shares; swing-foot placement gains across
+  // and along the way (m/m, s).
+  double trunk_kp = 0, trunk_kv = 0, lateral_d = 0, lateral_v = 0, sagittal_d = 0, sagittal_v = 0;
 };
 
 struct CpgModel {

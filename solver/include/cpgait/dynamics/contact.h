@@ -33,16 +33,24 @@ struct ContactSet {
   // relative to it.
   Eigen::Vector3d ground_velocity_m_s = Eigen::Vector3d::Zero();
   double smoothing_m = 1e-5;  // eps: the penetration below which the force fades out smoothly
+  // A step in the ground: past its edge (ground x >= step_x_m, the edge carried by the belt: at time t
+  // it lies at step_x_m + v_belt,x t) the ground is step_height_m higher (m; negative: a step down),
+  // the edge smoothed over step_edge_m (m). Default 0: level.
+  double step_height_m = 0, step_x_m = 0, step_edge_m = 0.005;
   std::vector<ContactSphere> spheres;
 };
+
+// The ground's height (m, ground y) at ground x (m) and time t (s).
+double ground_height_at(const ContactSet& set, double x_m, double t_s);
 
 // The force (N, ground frame) the ground applies at the sphere's lowest point, from the sphere
 // centre's position and the velocity in ground of the sphere's material point there (the contact
 // point: the centre's velocity plus omega x r; its vertical part is the centre's).
 Eigen::Vector3d sphere_contact_force(const ContactSphere& s, const ContactSet& set, const Eigen::Vector3d& centre_G_m,
-                                     const Eigen::Vector3d& contact_point_velocity_G_m_s);
+                                     const Eigen::Vector3d& contact_point_velocity_G_m_s, double t_s = 0);
 
-// JSON "cpgait.contact/1": {"ground_height_m": 0, "ground_velocity_m_s": [3] (a treadmill belt), "defaults": {sphere fields}, "spheres": [{"name",
+// JSON "cpgait.contact/1": {"ground_height_m": 0, "ground_velocity_m_s": [3] (a treadmill belt), "step_height_m",
+// "step_x_m", "step_edge_m", "defaults": {sphere fields}, "spheres": [{"name",
 // "body", "location_m": [3], "radius_m", "stiffness", "dissipation", "static_friction",
 // "dynamic_friction", "viscous_friction", "transition_velocity"}]}; missing fields take "defaults",
 // then the values above. Throws InputError naming the field.

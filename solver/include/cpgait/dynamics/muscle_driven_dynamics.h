@@ -58,6 +58,7 @@ struct MuscleDrivenWorkspace {
   Eigen::MatrixXd G, M_free;
   std::vector<char> rigid_tendon;  // per muscle: its own model's tendon is inextensible
   // Outputs of the last evaluation.
+  double time_s = 0;
   Eigen::VectorXd muscle_force_N;      // along the tendon
   Eigen::VectorXd fiber_velocity_m_s;  // compliant tendons: d(fibre length)/dt
   Eigen::VectorXd active_force_N;      // rigid tendons: the active part of muscle_force_N

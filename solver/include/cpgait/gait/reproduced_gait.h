@@ -7,9 +7,10 @@
 // Every control interval (1 ms): the CPG advances one step with its feedback signals; each muscle's
 // excitation is the CPG's plus  kp * sum_c r_mc (q_ref,c - q_c) + kv * sum_c r_mc (u_ref,c - u_c)
 // over the non-pelvis coordinates (r: moment arms, m), so a muscle that would correct a joint's
-// error is excited more; the pelvis residuals, when on, hold the pelvis' rotations on the reference
-// by computed torque and its translations by soft springs (see the options), so the ground, not the
-// residuals, carries the body. The reference is the trial's kinematics, time-scaled by the speed
+// error is excited more. Balance feedback (simbicon_balance.h), when on, moves the stance hip's and
+// the swing hip's targets to right the pelvis and place the swing foot. The pelvis residuals, when
+// on, hold the pelvis' rotations on the reference by computed torque and its translations by soft
+// springs (see the options), so the ground, not the residuals, carries the body. The reference is the trial's kinematics, time-scaled by the speed
 // knob. The feet should be fitted to the trial (fit_foot_spheres_to_trial): on subject01 the default
 // spheres under the recorded poses carried a fifth of the body's weight, and with the pelvis on soft
 // springs the model sank onto its toes and fell at 2.45 s (28 % BW, hip_flexion_l 21 deg off) -
@@ -21,6 +22,7 @@
 #include "cpgait/capture/storage.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/contact.h"
+#include "cpgait/gait/simbicon_balance.h"
 #include "cpgait/model/model.h"
 #include "cpgait/progress.h"
 
@@ -75,6 +77,21 @@ struct ReproducedGaitOptions {
   // the simulation's time, so that the speed knob and entrainment move them with the CPG. The pelvis
   // translations keep the trial's. Needs a full cycle of reference after start_time_s. Default off.
   bool phase_indexed_reference = false;
+  // Balance feedback into the reflex (simbicon_balance.h); off by default. The reference pose it
+  // compares against is the reflexes'; the reference velocity the trial's mean pelvis velocity.
+  SimbiconGains balance;
+  // Robustness trials. A push: a force at the pelvis' origin (N, ground frame) from push_time_s (s;
+  // < 0: none) for push_duration_s (s, default 0.1), its impulse force x duration.
+  double push_time_s = -1, push_duration_s = 0.1;
+  Eigen::Vector3d push_force_N = Eigen::Vector3d::Zero();
+  // A step in the ground (m; negative: down; default 0: level) whose edge reaches the pelvis'
+  // starting place at ground_step_time_s (s) - carried there by the belt on a treadmill, walked to at
+  // the trial's mean speed overground. The trial is taken to walk along ground x.
+  double ground_step_m = 0, ground_step_time_s = 5;
+  // Walk -> stand: from stop_time_s (s; < 0: never) over stop_over_s (s; <= 0: one CPG cycle) the
+  // CPG's excitations fade out, the reflexes' targets turn from the trial's cycle to its mean pose
+  // (both feet side by side) and a treadmill's belt slows to a halt.
+  double stop_time_s = -1, stop_over_s = 0;
 };
 
 struct ReproducedGaitResult {
@@ -97,6 +114,10 @@ struct ReproducedGaitResult {
   double mean_residual_moment_Nm = 0;
   double fell_at_s = -1;                        // < 0: did not fall
   double distance_m = 0;                        // pelvis horizontal travel
+  // Walk -> stand (stop_time_s): when the pelvis came to rest (horizontal speed over the ground
+  // below 0.1 m/s from then on; < 0: it did not), and how long it then stood with the centre of mass
+  // over the support polygon of the loaded contact spheres.
+  double stopped_at_s = -1, stood_s = 0;
   double solve_seconds = 0;
   long integrator_steps = 0;
   std::vector<std::string> warnings;

@@ -1,0 +1,59 @@
+#pragma once
+// Balance feedback for the reproduced gait after SIMBICON (Yin, Loken & van de Panne, 2007), in joint
+// space so the muscle reflex turns it into excitations:
+// - trunk: on each stance leg the hip's target moves by the hip rotation that, the femur held still,
+//   turns the pelvis back to its reference orientation (femur held: dh = -J_hip^+ J_pelvis dp, from
+//   the femur's angular Jacobians), so the stance hip's muscles right the pelvis;
+// - foot placement: the swing leg's hip target moves its foot by
+//     c_d (d - d_ref) + c_v (v - v_ref)   (horizontal, ground frame; own gains along and across),
+//   d the pelvis' offset from the stance foot and v the pelvis' velocity, against the reference pose's
+//   offset and the reference's mean velocity: too fast forward or sideways, the foot lands further that
+//   way and brakes (Raibert's and SIMBICON's rule).
+// Legs are found by name: the joints from the root's body to a child named *_r / *_l (hips), and the
+// contact spheres named *_r / *_l (feet); a model without them gets no balance feedback.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "cpgait/dynamics/contact.h"
+#include "cpgait/kinematics/motion_subspace.h"
+
+namespace cpgait {
+
+struct SimbiconGains {
+  double trunk_kp = 0;     // share of the pelvis' orientation error added to the stance hip's (default 0: off)
+  double trunk_kv = 0;     // the same for its angular velocity error (default 0)
+  // c_d (m/m) and c_v (m/(m/s) = s) across and along the walking direction (the reference pelvis'
+  // heading); default 0: off. Apart, because the pelvis' speed along the way swings within every
+  // stride while across it drifts: on subject01 the same gains both ways fell sooner than none.
+  double lateral_d = 0, lateral_v = 0;
+  double sagittal_d = 0, sagittal_v = 0;
+  bool any() const { return trunk_kp != 0 || trunk_kv != 0 || lateral_d != 0 || lateral_v != 0 || sagittal_d != 0 || sagittal_v != 0; }
+};
+
+struct SimbiconLegs {
+  std::vector<int> pelvis_rotations;      // the root's rotational coordinates
+  std::vector<int> pelvis_translations;   // the root's translations
+  int pelvis_body = -1;
+  std::vector<int> hip[2];                // coordinates of each side's hip (0 right, 1 left)
+  std::vector<int> spheres[2];            // each side's contact spheres
+  bool valid() const { return pelvis_body > 0 && !hip[0].empty() && !hip[1].empty() && !spheres[0].empty() && !spheres[1].empty(); }
+};
+
+// 0 for a name ending in _r, 1 for _l, -1 otherwise.
+int side_of(const std::string& name);
+
+SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts);
+
+// Adds the balance feedback to the reflex's joint errors e (rad) and ed (rad/s), all coordinates.
+// kin/S: the state's kinematics; u: its speeds; reference_kin: the reference pose's kinematics;
+// e_pelvis/ed_pelvis: the pelvis rotations' errors (reference - state); v_ref: the reference's mean
+// pelvis velocity (m/s, ground); contact_force_N: per sphere; stance: the load that makes a leg stance (N).
+void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& legs, const SimbiconGains& gains,
+                               const KinematicsWorkspace<double>& kin, const MotionSubspace& S, const Eigen::VectorXd& u,
+                               const KinematicsWorkspace<double>& reference_kin, const Eigen::VectorXd& e_pelvis,
+                               const Eigen::VectorXd& ed_pelvis, const Eigen::Vector3d& v_ref,
+                               const std::vector<Eigen::Vector3d>& contact_force_N, double stance_N, Eigen::VectorXd& e,
+                               Eigen::VectorXd& ed);
+
+}  // namespace cpgait

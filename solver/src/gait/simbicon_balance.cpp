@@ -1,0 +1,122 @@
+#include "cpgait/gait/simbicon_balance.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+namespace cpgait {
+
+namespace {
+
+Eigen::Vector3d sphere_centre(const KinematicsWorkspace<double>& kin, const ContactSphere& s) {
+  const auto& X = kin.body_in_ground[s.body];
+  return X.rotation * s.location_m + X.translation_m;
+}
+
+// The mean centre of a side's spheres (ground frame).
+Eigen::Vector3d foot_point(const ContactSet& contacts, const std::vector<int>& spheres, const KinematicsWorkspace<double>& kin) {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (int s : spheres) p += sphere_centre(kin, contacts.spheres[s]);
+  return p / static_cast<double>(spheres.size());
+}
+
+}  // namespace
+
+int side_of(const std::string& name) {
+  if (name.size() >= 2 && name.compare(name.size() - 2, 2, "_r") == 0) return 0;
+  if (name.size() >= 2 && name.compare(name.size() - 2, 2, "_l") == 0) return 1;
+  return -1;
+}
+
+SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts) {
+  SimbiconLegs legs;
+  for (const auto& j : model.joints)
+    if (j.parent_body == 0) {
+      legs.pelvis_body = j.child_body;
+      for (int c : j.coordinates) (model.coordinates[c].is_angle() ? legs.pelvis_rotations : legs.pelvis_translations).push_back(c);
+      break;
+    }
+  if (legs.pelvis_body <= 0) return legs;
+  for (const auto& j : model.joints) {
+    if (j.parent_body != legs.pelvis_body) continue;
+    const int side = side_of(model.bodies[j.child_body].name);
+    if (side >= 0 && legs.hip[side].empty())
+      for (int c : j.coordinates)
+        if (model.coordinates[c].is_angle()) legs.hip[side].push_back(c);
+  }
+  for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
+    const int side = side_of(contacts.spheres[s].name);
+    if (side >= 0) legs.spheres[side].push_back(static_cast<int>(s));
+  }
+  return legs;
+}
+
+void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& legs, const SimbiconGains& g,
+                               const KinematicsWorkspace<double>& kin, const MotionSubspace& S, const Eigen::VectorXd& u,
+                               const KinematicsWorkspace<double>& reference_kin, const Eigen::VectorXd& e_pelvis,
+                               const Eigen::VectorXd& ed_pelvis, const Eigen::Vector3d& v_ref,
+                               const std::vector<Eigen::Vector3d>& contact_force_N, double stance_N, Eigen::VectorXd& e,
+                               Eigen::VectorXd& ed) {
+  if (!legs.valid() || !g.any()) return;
+  double load[2] = {0, 0};
+  for (int side = 0; side < 2; ++side)
+    for (int s : legs.spheres[side]) load[side] += contact_force_N[s].y();
+  const bool stance[2] = {load[0] > stance_N, load[1] > stance_N};
+  const Eigen::Index np = static_cast<Eigen::Index>(legs.pelvis_rotations.size());
+  Eigen::Matrix3Xd Jp(3, np);
+  for (Eigen::Index i = 0; i < np; ++i) Jp.col(i) = S.columns.col(legs.pelvis_rotations[i]).head<3>();
+  // The pelvis' offset from the stance foot (the more loaded one) and its velocity, horizontal.
+  const int support = load[0] >= load[1] ? 0 : 1;
+  const Eigen::Vector3d pelvis = kin.body_in_ground[legs.pelvis_body].translation_m;
+  Eigen::Vector3d d_error = Eigen::Vector3d::Zero();
+  if (stance[support])
+    d_error = (pelvis - foot_point(contacts, legs.spheres[support], kin)) -
+              (reference_kin.body_in_ground[legs.pelvis_body].translation_m - foot_point(contacts, legs.spheres[support], reference_kin));
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  for (int c : legs.pelvis_rotations) v += point_velocity_column(S, c, pelvis) * u[c];
+  for (int c : legs.pelvis_translations) v += point_velocity_column(S, c, pelvis) * u[c];
+  // Along and across the reference pelvis' heading (its x axis, horizontal).
+  Eigen::Vector3d along = reference_kin.body_in_ground[legs.pelvis_body].rotation.col(0);
+  along.y() = 0;
+  along = along.norm() > 1e-9 ? along.normalized() : Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d across = along.cross(Eigen::Vector3d::UnitY());
+  const Eigen::Vector3d dv = v - v_ref;
+  const Eigen::Vector3d shift = along * (g.sagittal_d * d_error.dot(along) + g.sagittal_v * dv.dot(along)) +
+                                across * (g.lateral_d * d_error.dot(across) + g.lateral_v * dv.dot(across));
+  const bool placement = g.lateral_d != 0 || g.lateral_v != 0 || g.sagittal_d != 0 || g.sagittal_v != 0;
+  for (int side = 0; side < 2; ++side) {
+    const auto& hip = legs.hip[side];
+    const Eigen::Index nh = static_cast<Eigen::Index>(hip.size());
+    if (stance[side]) {
+      if (g.trunk_kp == 0 && g.trunk_kv == 0) continue;
+      Eigen::Matrix3Xd Jh(3, nh);
+      for (Eigen::Index i = 0; i < nh; ++i) Jh.col(i) = S.columns.col(hip[i]).head<3>();
+      // The femur held still: Jh dh + Jp dp = 0.
+      const Eigen::MatrixXd map = -Jh.completeOrthogonalDecomposition().solve(Jp);
+      const Eigen::VectorXd dh = map * (g.trunk_kp * e_pelvis), dhd = map * (g.trunk_kv * ed_pelvis);
+      for (Eigen::Index i = 0; i < nh; ++i) e[hip[i]] += dh[i], ed[hip[i]] += dhd[i];
+    } else if (stance[1 - side] && placement) {
+      const Eigen::Vector3d p = foot_point(contacts, legs.spheres[side], kin);
+      // Not the hip's turn about the (roughly vertical) thigh: with the knee bent it swings the foot
+      // sideways by twisting the leg.
+      Eigen::Index twist = -1;
+      if (nh == 3) {
+        double most_vertical = -1;
+        for (Eigen::Index i = 0; i < nh; ++i) {
+          const Eigen::Vector3d w = S.columns.col(hip[i]).head<3>();
+          const double vertical = std::abs(w.y()) / std::max(1e-12, w.norm());
+          if (vertical > most_vertical) most_vertical = vertical, twist = i;
+        }
+      }
+      Eigen::Matrix2Xd Jf(2, nh);
+      for (Eigen::Index i = 0; i < nh; ++i) {
+        const Eigen::Vector3d col = i == twist ? Eigen::Vector3d::Zero() : point_velocity_column(S, hip[i], p);
+        Jf.col(i) = Eigen::Vector2d(col.x(), col.z());
+      }
+      const Eigen::VectorXd dh = Jf.completeOrthogonalDecomposition().solve(Eigen::Vector2d(shift.x(), shift.z()));
+      for (Eigen::Index i = 0; i < nh; ++i) e[hip[i]] += dh[i];
+    }
+  }
+}
+
+}  // namespace cpgait
