@@ -169,6 +169,9 @@ void run_gait(const GaitArgs& g) {
   const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
   if (g.start >= 0) {
     o.start_time_s = g.start;
+  } else if (cpg.controller && cpg.controller->start_time_s >= 0) {
+    o.start_time_s = cpg.controller->start_time_s;
+    std::printf("start: the heel strike at %.3f s the CPG's controller was tuned from\n", o.start_time_s);
   } else {
     const std::string foot = model.body_index("calcn_r") >= 0 ? "calcn_r" : "foot_r";
     const auto strikes = heel_strikes_zeni(model, k.time_s, k.q, foot);
@@ -205,6 +208,7 @@ void run_gait(const GaitArgs& g) {
   }
   if (driving.controller) {
     o = with_controller(*driving.controller, o);
+    if (g.start >= 0) o.start_time_s = g.start;  // given: it wins over the controller's
     std::printf("controller from the CPG: reflex %.1f / %.2f, %s, %s residuals\n", o.reflex_kp, o.reflex_kv,
                 o.phase_indexed_reference ? "reference by phase" : "reference by time", o.pelvis_residuals ? "with" : "without");
   }

@@ -354,6 +354,12 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   ASSERT_EQ(replay.status, 0) << replay.output;
   EXPECT_NE(replay.output.find("controller from the CPG"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("without residuals"), std::string::npos) << replay.output;
+  // From the heel strike the tuning began at (stored with the controller), the same walk as the stage's.
+  EXPECT_NE(replay.output.find("the CPG's controller was tuned from"), std::string::npos) << replay.output;
+  const cpgait::Storage staged = cpgait::read_storage(dir + "/out/w_gait.mot"), replayed = cpgait::read_storage(dir + "/replay_gait.mot");
+  ASSERT_GE(staged.num_rows(), replayed.num_rows());
+  ASSERT_GT(replayed.num_rows(), 100);
+  EXPECT_LT((staged.data.topRows(replayed.num_rows()) - replayed.data).cwiseAbs().maxCoeff(), 1e-6);  // as printed
   fs::remove_all(dir);
 }
 

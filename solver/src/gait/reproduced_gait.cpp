@@ -570,6 +570,7 @@ ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOpti
   o.phase_indexed_reference = c.phase_reference;
   o.pelvis_residuals = c.pelvis_residuals;
   o.balance = {c.trunk_kp, c.trunk_kv, c.lateral_d, c.lateral_v, c.sagittal_d, c.sagittal_v};
+  if (c.start_time_s >= 0) o.start_time_s = c.start_time_s;
   return o;
 }
 

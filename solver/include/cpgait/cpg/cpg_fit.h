@@ -31,6 +31,10 @@ struct CpgController {
   // Balance feedback (simbicon_balance.h): stance-hip trunk shares; swing-foot placement gains across
   // and along the way (m/m, s).
   double trunk_kp = 0, trunk_kv = 0, lateral_d = 0, lateral_v = 0, sagittal_d = 0, sagittal_v = 0;
+  // The heel strike (s, in the trial) the walks it was tuned on began from; < 0: unknown. A replay
+  // begins there: the tuned walk is that sensitive (begun 19 ms earlier, at Zeni's heel strike rather
+  // than the force plate's, subject01's fell at 5.6 s instead of walking 15 s - measured).
+  double start_time_s = -1;
 };
 
 struct CpgModel {

@@ -126,7 +126,7 @@ struct ReproducedGaitResult {
 };
 
 // The options with a tuned controller applied (tune_gait_controller.h; stored in the CPG's JSON): its
-// reflex gains, reference and residual setting.
+// reflex and balance gains, reference, residual setting and start.
 ReproducedGaitOptions with_controller(const CpgController& controller, ReproducedGaitOptions options);
 
 ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg, const Storage& reference_coordinates,
