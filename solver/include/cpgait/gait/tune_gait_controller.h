@@ -30,9 +30,10 @@ struct GaitTuningOptions {
   // time walked the shortest (default: 1 alone).
   std::vector<double> speeds = {1.0};
   // CMA-ES runs this many times, each from the last one's best with a fresh step size, their horizons
-  // rising evenly to horizon_s and the evaluations shared (default 1). A curriculum: on subject01,
-  // walks that fall within a few seconds are cheap to tell apart, and a search begun over the whole
-  // horizon spent its first generations on them.
+  // rising evenly to horizon_s and the evaluations shared (default 1): short walks first, which are
+  // cheap. On subject01 from the untuned start, 3 rounds to 15 s walked 11.4 s after 1,200
+  // simulations and the whole 15 s after 2,000 (the pipeline, 589 s) - measured; a single round of
+  // the same budget was not compared.
   int rounds = 1;
   int num_threads = 0;          // simulations in parallel; 0: every core
   unsigned long long seed = 1;
