@@ -208,7 +208,8 @@ void run_gait(const GaitArgs& g) {
   }
   if (driving.controller) {
     o = with_controller(*driving.controller, o);
-    if (g.start >= 0) o.start_time_s = g.start;  // given: it wins over the controller's
+    if (g.start >= 0) o.start_time_s = g.start;  // given: they win over the controller's
+    if (g.options.begin_time_s >= 0) o.begin_time_s = g.options.begin_time_s;
     std::printf("controller from the CPG: reflex %.1f / %.2f, %s, %s residuals\n", o.reflex_kp, o.reflex_kv,
                 o.phase_indexed_reference ? "reference by phase" : "reference by time", o.pelvis_residuals ? "with" : "without");
   }

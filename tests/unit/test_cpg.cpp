@@ -182,13 +182,13 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   bad["network"]["tau_r_s"] = {1.0};
   EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
   // A tuned controller, balance gains included, round-trips; a gain that is not a number is refused.
-  named.controller = CpgController{250, 17, true, false, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618};
+  named.controller = CpgController{250, 17, true, false, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25};
   const CpgModel tuned = CpgModel::from_json(named.to_json(), "model.json");
   ASSERT_TRUE(tuned.controller.has_value());
   const CpgController& k = *tuned.controller;
   EXPECT_EQ(std::vector<double>({k.reflex_kp, k.reflex_kv, k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v,
-                                 k.start_time_s}),
-            std::vector<double>({250, 17, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618}));
+                                 k.start_time_s, k.begin_time_s}),
+            std::vector<double>({250, 17, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25}));
   bad = named.to_json();
   bad["controller"]["foot_placement"]["lateral_v_s"] = "fast";
   EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);

@@ -1,4 +1,6 @@
 // The reproduced gait: the fitted CPG drives the muscles on contact spheres fitted to the trial's feet.
+#include <algorithm>
+
 #include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/reproduced_gait.h"
@@ -23,7 +25,8 @@ struct GaitStageOptions {
         OptionFields<GaitStageOptions>(
             "Begins at the first heel strike, or earlier when the trial would end first; needs the cpg stage's fit.")
             .optional_number("duration_s", &GaitStageOptions::duration_s, "s",
-                             "simulated time; absent: two gait cycles, or what the trial has", NumberRange{0.0, 30.0, true})
+                             "simulated time; absent: with residuals two gait cycles, or what the trial has; without, the trial's length "
+                             "and at least 10 s", NumberRange{0.0, 30.0, true})
             .boolean("residuals", &GaitStageOptions::residuals,
                      "pelvis residual actuators hold the rotations and soft springs the translations; false: the model walks on its own")
             .boolean("phase_reference", &GaitStageOptions::phase_reference,
@@ -94,6 +97,9 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
                 {"horizon_s", to.horizon_s}, {"controller", driving.to_json()["controller"]}, {"amplitude", driving.amplitude}};
     }
     if (driving.controller) go = with_controller(*driving.controller, go);  // a tuned CPG walks as it was tuned
+    // Walking on its own, as long as the trial and at least 10 s (issue 22); held by residuals, which
+    // need the trial's pelvis, what the trial has.
+    if (!o.duration_s && !go.pelvis_residuals) go.duration_s = std::max(10.0, available);
     const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, go, trial.progress);
     trial.write(reproduced_gait_motion_table(model, g), "_gait.mot");
     trial.write(reproduced_gait_residual_table(g), "_gait_residuals.sto");

@@ -575,6 +575,7 @@ nlohmann::json CpgModel::to_json() const {
                        {"phase_reference", controller->phase_reference},
                        {"pelvis_residuals", controller->pelvis_residuals},
                        {"start_time_s", controller->start_time_s},
+                       {"begin_time_s", controller->begin_time_s},
                        {"trunk_kp", controller->trunk_kp},
                        {"trunk_kv", controller->trunk_kv},
                        {"foot_placement",
@@ -638,6 +639,7 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
       k.phase_reference = c.value("phase_reference", k.phase_reference);
       k.pelvis_residuals = c.value("pelvis_residuals", k.pelvis_residuals);
       k.start_time_s = c.value("start_time_s", k.start_time_s);
+      k.begin_time_s = c.value("begin_time_s", k.begin_time_s);
       k.trunk_kp = c.value("trunk_kp", k.trunk_kp);
       k.trunk_kv = c.value("trunk_kv", k.trunk_kv);
       if (c.contains("foot_placement")) {

@@ -115,9 +115,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
 
   const double ref_end = ref.time_s.back();
   const double tau_at_cpg_start = o.start_time_s + cpg.phase_at_start * cpg_in.cycle_s;  // the CPG's start state fits here
-  double tau0 = o.begin_time_s >= 0 ? o.begin_time_s : tau_at_cpg_start;
-  if (o.begin_time_s < 0 && tau0 + o.duration_s * o.speed > ref_end)  // begin earlier rather than run past the trial
-    tau0 = std::max(ref.time_s.front(), ref_end - o.duration_s * o.speed);
+  const double tau0 = reproduced_gait_begin_s(cpg_in, ref.time_s.front(), ref_end, o);
   r.reference_begin_s = tau0;
   if (tau0 < ref.time_s.front() || tau0 > ref_end)
     throw InputError(reference.name, 0, o.begin_time_s >= 0 ? "begin_time" : "start_time",
@@ -564,6 +562,14 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   return r;
 }
 
+double reproduced_gait_begin_s(const CpgModel& cpg, double reference_front_s, double reference_end_s, const ReproducedGaitOptions& o) {
+  if (o.begin_time_s >= 0) return o.begin_time_s;
+  const double at_cpg_start = o.start_time_s + cpg.phase_at_start * cpg.cycle_s;
+  // Earlier rather than run past the trial.
+  if (at_cpg_start + o.duration_s * o.speed > reference_end_s) return std::max(reference_front_s, reference_end_s - o.duration_s * o.speed);
+  return at_cpg_start;
+}
+
 ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOptions o) {
   o.reflex_kp = c.reflex_kp;
   o.reflex_kv = c.reflex_kv;
@@ -571,6 +577,7 @@ ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOpti
   o.pelvis_residuals = c.pelvis_residuals;
   o.balance = {c.trunk_kp, c.trunk_kv, c.lateral_d, c.lateral_v, c.sagittal_d, c.sagittal_v};
   if (c.start_time_s >= 0) o.start_time_s = c.start_time_s;
+  if (c.begin_time_s >= 0) o.begin_time_s = c.begin_time_s;
   return o;
 }
 

@@ -25,7 +25,7 @@ struct Candidate {
   double amplitude_factor;
 };
 
-Candidate decode(const Eigen::VectorXd& p, const CpgController& start, double start_time_s) {
+Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const ReproducedGaitOptions& base) {
   Candidate k{start, 1.0 + kAmplitudeRange * std::tanh(p[2])};
   k.controller.reflex_kp = start.reflex_kp * std::exp(p[0]);
   k.controller.reflex_kv = start.reflex_kv * std::exp(p[1]);
@@ -34,7 +34,8 @@ Candidate decode(const Eigen::VectorXd& p, const CpgController& start, double st
   for (int i = 0; i < 6; ++i) *balance[i] += kBalanceStep[i] * p[3 + i];
   k.controller.phase_reference = true;
   k.controller.pelvis_residuals = false;
-  k.controller.start_time_s = start_time_s;
+  k.controller.start_time_s = base.start_time_s;
+  k.controller.begin_time_s = base.begin_time_s;
   return k;
 }
 
@@ -52,8 +53,15 @@ CpgController untuned_controller() {
 }  // namespace
 
 GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& contacts,
-                                      const ReproducedGaitOptions& base, const GaitTuningOptions& t, Progress* progress) {
+                                      const ReproducedGaitOptions& options, const GaitTuningOptions& t, Progress* progress) {
   const auto t0 = std::chrono::steady_clock::now();
+  // Every candidate, of every round's horizon, begins where a walk of the whole horizon would; the
+  // controller keeps that beginning so a replay of any length is the same walk.
+  ReproducedGaitOptions base = options;
+  if (base.begin_time_s < 0 && reference.num_rows() > 0) {
+    base.duration_s = t.horizon_s;
+    base.begin_time_s = reproduced_gait_begin_s(cpg, reference.time()(0), reference.time()(reference.num_rows() - 1), base);
+  }
   if (t.speeds.empty()) throw std::invalid_argument("tune_gait_controller: no speeds to walk at");
   if (t.rounds < 1) throw std::invalid_argument("tune_gait_controller: rounds must be at least 1");
   std::vector<int> rotations;
@@ -105,14 +113,14 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   GaitTuningResult result;
   const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(kParameters);
   // The start, scored over the whole horizon for the summary.
-  result.summary.start_cost = score(decode(x0, *working.controller, base.start_time_s), &result.summary.start_walked_s, true);
+  result.summary.start_cost = score(decode(x0, *working.controller, base), &result.summary.start_walked_s, true);
   double cost = result.summary.start_cost, walked = result.summary.start_walked_s;
   for (int round = 0; round < t.rounds; ++round) {
     horizon_s = t.horizon_s * (round + 1) / t.rounds;
     const CpgController from = *working.controller;
     best_cost = std::numeric_limits<double>::infinity();
     double round_start_walked = walked;
-    const double round_start_cost = t.rounds == 1 ? cost : score(decode(x0, from, base.start_time_s), &round_start_walked, true);
+    const double round_start_cost = t.rounds == 1 ? cost : score(decode(x0, from, base), &round_start_walked, true);
     CmaEsOptions co;
     co.initial_sigma = 0.5;
     co.max_evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
@@ -121,10 +129,10 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     co.lower = Eigen::VectorXd::Constant(kParameters, -3.0);  // gains from 1/20 of the start's ...
     co.upper = Eigen::VectorXd::Constant(kParameters, 3.0);   // ... to 20 times; balance steps +-3
     co.upper[0] = 4.0;                                         // kp to 55 times
-    const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, from, base.start_time_s), nullptr, false); }, x0, co);
+    const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, from, base), nullptr, false); }, x0, co);
     cost = round_start_cost, walked = round_start_walked;
     if (s.best_value < round_start_cost) {
-      const Candidate k = decode(s.best_x, from, base.start_time_s);
+      const Candidate k = decode(s.best_x, from, base);
       working.controller = k.controller;
       working.amplitude *= k.amplitude_factor;
       cost = s.best_value, walked = best_walked;

@@ -35,6 +35,9 @@ struct CpgController {
   // begins there: the tuned walk is that sensitive (begun 19 ms earlier, at Zeni's heel strike rather
   // than the force plate's, subject01's fell at 5.6 s instead of walking 15 s - measured).
   double start_time_s = -1;
+  // Where in the trial (s) those walks began; < 0: unknown. Without it a replay shorter or longer than
+  // the tuning's horizon could begin elsewhere (a walk that would run past the trial begins earlier).
+  double begin_time_s = -1;
 };
 
 struct CpgModel {

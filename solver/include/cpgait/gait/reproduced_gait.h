@@ -125,8 +125,12 @@ struct ReproducedGaitResult {
   std::string BriefReport() const;
 };
 
+// Where in the reference (s) a simulation with these options begins: begin_time_s if given, else the
+// heel strike plus the CPG's start phase, or earlier where the reference would end before duration_s.
+double reproduced_gait_begin_s(const CpgModel& cpg, double reference_front_s, double reference_end_s, const ReproducedGaitOptions& o);
+
 // The options with a tuned controller applied (tune_gait_controller.h; stored in the CPG's JSON): its
-// reflex and balance gains, reference, residual setting and start.
+// reflex and balance gains, reference, residual setting, start and beginning.
 ReproducedGaitOptions with_controller(const CpgController& controller, ReproducedGaitOptions options);
 
 ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg, const Storage& reference_coordinates,
