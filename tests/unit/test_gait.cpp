@@ -222,10 +222,7 @@ struct StillWalker {
   Eigen::Vector3d centre_of_mass(const Eigen::VectorXd& q) const {
     KinematicsWorkspace<double> k(m);
     forward_kinematics(m, q.data(), k);
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (std::size_t b = 1; b < m.bodies.size(); ++b)
-      c += m.bodies[b].mass_kg * (k.body_in_ground[b].rotation * m.bodies[b].com_m + k.body_in_ground[b].translation_m);
-    return c / m.total_mass_kg();
+    return centre_of_mass_m(m, k);
   }
 };
 

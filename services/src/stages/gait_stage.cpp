@@ -94,7 +94,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
       trial.write_text(json_text(driving.to_json(), 2) + "\n", "_cpg_tuned.json");
       tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                 {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                {"horizon_s", to.horizon_s}, {"controller", driving.to_json()["controller"]}, {"amplitude", driving.amplitude}};
+                {"horizon_s", to.horizon_s}, {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
     }
     if (driving.controller) go = with_controller(*driving.controller, go);  // a tuned CPG walks as it was tuned
     // Walking on its own, as long as the trial and at least 10 s (issue 22); held by residuals, which

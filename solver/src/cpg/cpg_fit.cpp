@@ -570,20 +570,20 @@ nlohmann::json CpgModel::to_json() const {
           {"output_bias", vec(output_bias)},
           {"feedback", {{"signals", feedback_signals}, {"gains", mat(feedback_gains)}}}};
   if (controller)
-    j["controller"] = {{"reflex_kp", controller->reflex_kp},
-                       {"reflex_kv", controller->reflex_kv},
-                       {"phase_reference", controller->phase_reference},
-                       {"pelvis_residuals", controller->pelvis_residuals},
-                       {"start_time_s", controller->start_time_s},
-                       {"begin_time_s", controller->begin_time_s},
-                       {"trunk_kp", controller->trunk_kp},
-                       {"trunk_kv", controller->trunk_kv},
-                       {"foot_placement",
-                        {{"lateral_d", controller->lateral_d},
-                         {"lateral_v_s", controller->lateral_v},
-                         {"sagittal_d", controller->sagittal_d},
-                         {"sagittal_v_s", controller->sagittal_v}}}};
+    j["controller"] = controller->to_json();
   return j;
+}
+
+nlohmann::json CpgController::to_json() const {
+  return {{"reflex_kp", reflex_kp},
+          {"reflex_kv", reflex_kv},
+          {"phase_reference", phase_reference},
+          {"pelvis_residuals", pelvis_residuals},
+          {"start_time_s", start_time_s},
+          {"begin_time_s", begin_time_s},
+          {"trunk_kp", trunk_kp},
+          {"trunk_kv", trunk_kv},
+          {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}}};
 }
 
 CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source) {

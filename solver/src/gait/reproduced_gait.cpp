@@ -125,9 +125,11 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.warnings.push_back("the reference kinematics end after " + std::to_string(tracked_until) +
                          " s of simulated time: tracking errors and pelvis residuals use the reference up to there");
   std::vector<int> root;
+  int pelvis_body = 0;  // the root's body
   for (const auto& j : model.joints)
     if (j.parent_body == 0) {
       root = j.coordinates;
+      pelvis_body = j.child_body;
       break;
     }
   // The phase-indexed reference: the cycles after the heel strike averaged at 100 phases.
@@ -202,12 +204,6 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   reference_at(tau0, q_ref, u_ref, a_ref);
   x.head(nq) = q_ref;
   x.segment(nq, nq) = u_ref;
-  int pelvis_body = 0;
-  for (const auto& j : model.joints)
-    if (j.parent_body == 0) {
-      pelvis_body = j.child_body;
-      break;
-    }
   MatsuokaState neurons = cpg.start;
   MatsuokaScratch scratch;
   matsuoka_prepare(network, scratch);
@@ -420,10 +416,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       Eigen::Vector3d v = Eigen::Vector3d::Zero();
       for (int c : root) v += point_velocity_column(ws.fd.S, c, p) * x[nq + c];
       rec_pelvis_speed.push_back(std::hypot(v.x(), v.z()));
-      Eigen::Vector3d com = Eigen::Vector3d::Zero();
-      for (std::size_t b = 1; b < model.bodies.size(); ++b)
-        com += model.bodies[b].mass_kg * (kin.body_in_ground[b].rotation * model.bodies[b].com_m + kin.body_in_ground[b].translation_m);
-      com /= body_mass_kg;
+      const Eigen::Vector3d com = centre_of_mass_m(model, kin);
       std::vector<Eigen::Vector2d> support;
       for (std::size_t sp = 0; sp < contacts.spheres.size(); ++sp)
         if (ws.contact_force_N[sp].y() > kContactThresholdN) support.emplace_back(ws.contact_point_m[sp].x(), ws.contact_point_m[sp].z());

@@ -141,7 +141,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   // Over the whole horizon the start may still score better than the rounds' result.
   if (cost > result.summary.start_cost) {
     working = cpg;
-    working.controller = cpg.controller.value_or(untuned_controller());
+    working.controller = decode(x0, cpg.controller.value_or(untuned_controller()), base).controller;  // as it was scored
     cost = result.summary.start_cost, walked = result.summary.start_walked_s;
   }
   result.summary.cost = cost;

@@ -38,6 +38,8 @@ struct CpgController {
   // Where in the trial (s) those walks began; < 0: unknown. Without it a replay shorter or longer than
   // the tuning's horizon could begin elsewhere (a walk that would run past the trial begins earlier).
   double begin_time_s = -1;
+
+  nlohmann::json to_json() const;  // the CPG JSON's "controller" (CpgModel::from_json reads it)
 };
 
 struct CpgModel {

@@ -125,4 +125,15 @@ Eigen::Matrix<T, 3, 1> marker_position(const Model& model, int marker, const Kin
   return B.rotation * mk.location_m.cast<T>() + B.translation_m;
 }
 
+// The whole body's centre of mass (m, ground frame) in the pose ws holds.
+inline Eigen::Vector3d centre_of_mass_m(const Model& model, const KinematicsWorkspace<double>& ws) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  double mass = 0;
+  for (std::size_t b = 1; b < model.bodies.size(); ++b) {
+    c += model.bodies[b].mass_kg * (ws.body_in_ground[b].rotation * model.bodies[b].com_m + ws.body_in_ground[b].translation_m);
+    mass += model.bodies[b].mass_kg;
+  }
+  return mass > 0 ? Eigen::Vector3d(c / mass) : c;
+}
+
 }  // namespace cpgait
