@@ -153,6 +153,7 @@ struct GaitArgs {
   GaitTuningOptions tuning;
   int tune = 0;
   std::vector<double> push_force_N;
+  std::vector<double> tune_pushes_N_s;  // x y z per push
 };
 
 void run_gait(const GaitArgs& g) {
@@ -200,11 +201,19 @@ void run_gait(const GaitArgs& g) {
   if (g.tune > 0) {
     GaitTuningOptions to = g.tuning;
     to.evaluations = g.tune;
+    if (g.tune_pushes_N_s.size() % 3 != 0) throw InputError("--tune-pushes", 0, "tune-pushes", "expected three numbers (x y z) per push");
+    for (std::size_t i = 0; i + 2 < g.tune_pushes_N_s.size(); i += 3)
+      to.pushes_N_s.emplace_back(g.tune_pushes_N_s[i], g.tune_pushes_N_s[i + 1], g.tune_pushes_N_s[i + 2]);
     const GaitTuningResult tuned = tune_gait_controller(model, cpg, kin, contacts, o, to);
     driving = tuned.cpg;
     write_text_atomic(g.out + "_cpg_tuned.json", json_text(driving.to_json(), 2) + "\n");
     std::printf("%s\nwrote %s_cpg_tuned.json (reflex %.1f / %.2f, amplitude %.3f)\n", tuned.summary.BriefReport().c_str(), g.out.c_str(),
                 driving.controller->reflex_kp, driving.controller->reflex_kv, driving.amplitude);
+  }
+  if (!driving.speed_schedule.empty()) {
+    driving = scheduled_at_speed(driving, o.speed);
+    std::printf("controller scheduled at speed knob %.3f from the %zu tuned knobs (amplitude %.3f)\n", o.speed,
+                driving.speed_schedule.size() + 1, driving.amplitude);
   }
   if (driving.controller) {
     o = with_controller(*driving.controller, o);
@@ -258,8 +267,21 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--tune-speeds", g->tuning.speeds, "speed knobs each tuning candidate walks at (its cost their mean), e.g. 0.8 1 1.2")
       ->check(CLI::Range(0.2, 5.0))
       ->capture_default_str();
-  gait->add_option("--stop-at", g->options.stop_time_s, "walk -> stand: begin stopping at this time, s");
-  gait->add_option("--stop-over", g->options.stop_over_s, "walk -> stand: the transition's length, s (default: one cycle)");
+  gait->add_option("--tune-steps", g->tuning.ground_steps_m,
+                   "ground steps (m, negative: down) each tuning candidate also walks over, the edge under the pelvis at half the horizon, "
+                   "e.g. -0.02 0.01")
+      ->check(CLI::Range(-0.2, 0.2));
+  gait->add_option("--tune-pushes", g->tune_pushes_N_s,
+                   "pushes each tuning candidate also walks through, impulses at the pelvis over 0.1 s at half the horizon, N s, "
+                   "ground frame, three numbers each (x y z)");
+  gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,
+                   "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (deg RMS) costs as much as a fall")
+      ->check(CLI::Range(0.0, 90.0));
+  gait->add_option("--stop-at", g->options.stop_time_s, "walk -> stand: from this time, s, freeze the walk at the next --stop-phase and stand");
+  gait->add_option("--stop-over", g->options.stop_over_s, "walk -> stand: the treadmill belt's time to halt once the walk froze, s (default 0.3)");
+  gait->add_option("--stop-phase", g->options.stop_phase, "walk -> stand: the cycle phase (0-1 from the CPG foot's heel strike) where the walk freezes")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   gait->add_option("--push-time", g->options.push_time_s, "push the pelvis at this time, s (with --push-force)");
   gait->add_option("--push-force", g->push_force_N, "the push's force at the pelvis' origin, N, ground frame (x y z)")->expected(3);
   gait->add_option("--push-duration", g->options.push_duration_s, "how long the push lasts, s (impulse: force x duration)")

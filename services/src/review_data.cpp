@@ -10,6 +10,7 @@
 #include "cpgait/capture/external_loads.h"
 #include "cpgait/capture/marker_file.h"
 #include "cpgait/capture/storage.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/applied_loads.h"
@@ -174,6 +175,64 @@ char column_side(const std::string& column) {
   return 0;
 }
 
+// Each column's strides between one side's heel strikes (samples per stride, 0-100 % inclusive), their
+// mean and SD; the side from the column's name (right for neither). Activations keep the model's muscles.
+json cycle_series(const Model& model, const std::set<std::string>& muscles, const Storage& s, const std::map<char, std::vector<double>>& side_strikes,
+                  const std::string& panel, int kSamples) {
+  std::vector<double> time(s.time().data(), s.time().data() + s.num_rows());
+  json series = json::array();
+  for (int c = 1; c < s.num_columns(); ++c) {
+    const std::string& name = s.labels[static_cast<std::size_t>(c)];
+    if (panel == "activations" && !muscles.count(name)) continue;  // reserves and residuals
+    const char side = column_side(name) ? column_side(name) : 'r';
+    const auto found = side_strikes.find(side);
+    if (found == side_strikes.end()) continue;
+    const auto curves = cycle_curves(time, s.data.col(c), found->second, kSamples, true);
+    if (curves.empty()) continue;
+    json strides = json::array();
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(kSamples), sq = Eigen::VectorXd::Zero(kSamples);
+    for (const auto& curve : curves) {
+      strides.push_back(std::vector<double>(curve.data(), curve.data() + kSamples));
+      mean += curve.col(0);
+    }
+    mean /= static_cast<double>(curves.size());
+    for (const auto& curve : curves) sq += (curve.col(0) - mean).array().square().matrix();
+    const Eigen::VectorXd sd = curves.size() > 1 ? Eigen::VectorXd((sq / static_cast<double>(curves.size() - 1)).array().sqrt()) : Eigen::VectorXd(sq * 0.0);
+    const bool moments = panel == "moments", activations = panel == "activations";
+    const int ci = model.coordinate_index(moments ? name.substr(0, name.rfind('_')) : name);
+    const bool linear = ci >= 0 && !model.coordinates[static_cast<std::size_t>(ci)].is_angle();
+    const char* unit = activations ? "" : moments ? (linear ? "N" : "N·m") : (linear ? "m" : "deg");
+    series.push_back({{"name", name}, {"side", side == 'l' ? "l" : "r"}, {"unit", unit}, {"strides", strides},
+                      {"mean", std::vector<double>(mean.data(), mean.data() + kSamples)},
+                      {"sd", std::vector<double>(sd.data(), sd.data() + kSamples)}});
+  }
+  return series;
+}
+
+// The reproduced gait's coordinates between its own heel strikes (simulated time), and those of its
+// walks at other speed knobs: panels "gait" and "gait_speed_<knob>", when the gait stage ran.
+void append_gait_cycle_panels(json& panels, const Model& model, const std::set<std::string>& muscles, const std::string& results_dir,
+                              const std::string& trial_name, int kSamples) {
+  const std::string base = results_dir + "/" + trial_name;
+  if (!std::filesystem::exists(base + "_gait.json") || !std::filesystem::exists(base + "_gait.mot")) return;
+  const json summary = json::parse(text::read_file(base + "_gait.json"));
+  auto gait_strikes = [](const json& run) {
+    std::map<char, std::vector<double>> out;
+    out['r'] = run.at("heel_strikes_s").at("right").get<std::vector<double>>();
+    out['l'] = run.at("heel_strikes_s").at("left").get<std::vector<double>>();
+    return out;
+  };
+  panels.push_back({{"name", "gait"}, {"file", trial_name + "_gait.mot"}, {"speed_knob", 1.0},
+                    {"series", cycle_series(model, muscles, read_storage(base + "_gait.mot"), gait_strikes(summary), "gait", kSamples)}});
+  for (const json& run : summary.value("speed_knobs", json::array())) {
+    const std::string file = results_dir + "/" + run.at("file").get<std::string>();
+    if (!std::filesystem::exists(file)) continue;
+    panels.push_back({{"name", "gait_speed_" + run.at("speed_knob").dump()},
+                      {"file", run.at("file")}, {"speed_knob", run.at("speed_knob")},
+                      {"series", cycle_series(model, muscles, read_storage(file), gait_strikes(run), "gait", kSamples)}});
+  }
+}
+
 }  // namespace
 
 std::string column_quantity(std::string column) {
@@ -231,34 +290,9 @@ json trial_cycles_json(const std::string& model_path, const std::string& marker_
   for (const Panel& p : {Panel{"kinematics", "_ik.mot"}, Panel{"moments", "_id.sto"}, Panel{"activations", "_StaticOptimization_activation.sto"}}) {
     const std::string file = base + p.suffix;
     if (!std::filesystem::exists(file)) continue;
-    const Storage s = read_storage(file);
-    std::vector<double> time(s.time().data(), s.time().data() + s.num_rows());
-    json series = json::array();
-    for (int c = 1; c < s.num_columns(); ++c) {
-      const std::string& name = s.labels[static_cast<std::size_t>(c)];
-      if (std::string(p.name) == "activations" && !muscles.count(name)) continue;  // reserves and residuals
-      const char side = column_side(name) ? column_side(name) : 'r';
-      const auto curves = cycle_curves(time, s.data.col(c), strikes[side], kSamples, true);
-      if (curves.empty()) continue;
-      json strides = json::array();
-      Eigen::VectorXd mean = Eigen::VectorXd::Zero(kSamples), sq = Eigen::VectorXd::Zero(kSamples);
-      for (const auto& curve : curves) {
-        strides.push_back(std::vector<double>(curve.data(), curve.data() + kSamples));
-        mean += curve.col(0);
-      }
-      mean /= static_cast<double>(curves.size());
-      for (const auto& curve : curves) sq += (curve.col(0) - mean).array().square().matrix();
-      const Eigen::VectorXd sd = curves.size() > 1 ? Eigen::VectorXd((sq / static_cast<double>(curves.size() - 1)).array().sqrt()) : Eigen::VectorXd(sq * 0.0);
-      const bool moments = std::string(p.name) == "moments", activations = std::string(p.name) == "activations";
-      const int ci = model.coordinate_index(moments ? name.substr(0, name.rfind('_')) : name);
-      const bool linear = ci >= 0 && !model.coordinates[static_cast<std::size_t>(ci)].is_angle();
-      const char* unit = activations ? "" : moments ? (linear ? "N" : "N·m") : (linear ? "m" : "deg");
-      series.push_back({{"name", name}, {"side", side == 'l' ? "l" : "r"}, {"unit", unit}, {"strides", strides},
-                        {"mean", std::vector<double>(mean.data(), mean.data() + kSamples)},
-                        {"sd", std::vector<double>(sd.data(), sd.data() + kSamples)}});
-    }
-    panels.push_back({{"name", p.name}, {"file", trial_name + p.suffix}, {"series", series}});
+    panels.push_back({{"name", p.name}, {"file", trial_name + p.suffix}, {"series", cycle_series(model, muscles, read_storage(file), strikes, p.name, kSamples)}});
   }
+  append_gait_cycle_panels(panels, model, muscles, results_dir, trial_name, kSamples);
   json hs = json::object(), src = json::object();
   for (const char side : {'r', 'l'}) {
     hs[std::string(1, side)] = strikes[side];

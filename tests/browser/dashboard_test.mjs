@@ -106,7 +106,9 @@ try {
         if (f.type === 'object') continue;  // IK task weights: not a form field
         const shown = await page.locator(`#opt-${s.name}-${key}`).evaluate((e) => (e.type === 'checkbox' ? e.checked
           : e.tagName === 'SELECT' ? e.value : e.placeholder));
-        assert.equal(String(shown), String(f.default ?? ''), `${s.name}.${key}`);
+        // A list's default is shown space-separated, "none" when empty.
+        const expected = f.type === 'array' ? (f.default.length ? f.default.join(' ') : 'none') : String(f.default ?? '');
+        assert.equal(String(shown), expected, `${s.name}.${key}`);
         fields++;
       }
     }
@@ -458,6 +460,70 @@ let trialId;
       assert.ok(await page.locator('#static-marker-errors .row').count() >= 30);
       await page.locator('#scale-factors').scrollIntoViewIfNeeded();
       await page.screenshot({ path: path.join(ARTIFACTS, 'dashboard-scaling.png'), fullPage: true });
+    });
+  }
+
+  if (haveShared) {
+    await check('the autonomous gait: its strides against the trial\'s over the gait cycle, the speed knobs side by side, falls and strides', async () => {
+      const models = (await (await page.request.get(`${base}/api/v1/models`)).json()).models;
+      await page.goto(`${base}/#/upload`);
+      await page.waitForSelector('#osim');
+      await page.selectOption('#model', models.find((m) => m.name === path.basename(model)).id);
+      // Its muscles scaled from the generic model (uploaded by the scaling check), as `cpgait run --scale-muscles-from`.
+      await page.selectOption('#scale_muscles_from', models.find((m) => m.name === 'gait2392_simbody.osim').id);
+      await page.setInputFiles('#markers', trc);
+      await page.setInputFiles('#grf', grf);
+      await page.setInputFiles('#loads', loads);
+      await page.fill('#t0', '0.5');
+      await page.fill('#t1', '2.5');
+      await page.click('#stage-options summary');
+      // Without residuals, a few tuning simulations (short walks: what is checked is the page).
+      await page.uncheck('#opt-gait-residuals');
+      await page.check('#opt-gait-phase_reference');
+      await page.fill('#opt-gait-tune_evaluations', '8');
+      await page.fill('#opt-gait-tune_horizon_s', '3');
+      await page.fill('#opt-gait-duration_s', '4');
+      await page.fill('#opt-gait-speed_knobs', '0.8 1.2');
+      await page.click('#upload button[type=submit]');
+      await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
+      const id = page.url().match(/trial\/([0-9a-f]{16})/)[1];
+      await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 120000 });
+      const job = await (await page.request.get(`${base}/api/v1/trials/${id}/files/job.json`)).json();
+      assert.deepEqual(job.gait.speed_knobs, [0.8, 1.2]);
+      assert.equal(job.gait.residuals, false);
+      // The table: one row per walk, each with the stage's own figures.
+      const trial = await (await page.request.get(`${base}/api/v1/trials/${id}`)).json();
+      const summary = trial.stages.find((s) => s.name === 'gait').summary;
+      const runs = [summary, ...summary.speed_knobs];
+      const rows = await page.locator('#gait-runs tr[data-knob]').evaluateAll((r) => r.map((x) => ({ knob: x.dataset.knob, cells: [...x.cells].map((c) => c.textContent) })));
+      assert.deepEqual(rows.map((r) => r.knob), ['1', '0.8', '1.2']);
+      rows.forEach((r, i) => {
+        const run = runs[i];
+        assert.equal(r.cells[1], run.fell_at_s == null ? `${run.simulated_s.toFixed(1)} s, did not fall` : `fell at ${run.fell_at_s.toFixed(2)} s`);
+        const strides = (side) => Math.max(0, run.heel_strikes_s[side].length - 1);
+        assert.equal(r.cells[2], `${strides('right')} / ${strides('left')}`);
+        assert.equal(r.cells[3], run.stride_time_s.toFixed(3));
+        assert.equal(r.cells[6], run.speed_m_s.toFixed(2));
+      });
+      // The plot: the trial's strides and mean, the simulation's strides and mean, each knob's mean;
+      // every mean at 50 % the average of its strides there, the trial's the cycles endpoint's.
+      await page.selectOption('#gait-cycle-quantity', 'knee_angle_r');
+      const p = await page.evaluate(() => { const g = window.__cpgait.plots.gaitCycle; return { groups: g.groups, x: g.data[0] }; });
+      assert.deepEqual(p.groups.map((g) => g.label), ['trial', 'simulated 1×', 'simulated 0.8×', 'simulated 1.2×']);
+      assert.equal(p.x[0], 0);
+      assert.equal(p.x[100], 100);
+      assert.ok(p.groups[1].strides >= 1, 'no simulated stride');
+      for (const g of p.groups) {
+        if (!g.strides) continue;
+        const avg = g.strides50.reduce((a, b) => a + b, 0) / g.strides;
+        assert.ok(Math.abs(g.mean50 - avg) < 1e-9, `${g.label}: mean ${g.mean50} at 50 %, strides' average ${avg}`);
+      }
+      const cycles = await (await page.request.get(`${base}/api/v1/trials/${id}/cycles`)).json();
+      const knee = cycles.panels.find((x) => x.name === 'kinematics').series.find((x) => x.name === 'knee_angle_r');
+      assert.ok(Math.abs(p.groups[0].mean50 - knee.mean[50]) < 1e-9);
+      assert.equal(cycles.panels.find((x) => x.name === 'gait_speed_0.8').series.find((x) => x.name === 'knee_angle_r').strides.length,
+        runs[1].heel_strikes_s.right.length - 1);
+      await page.locator('.card:has(#gait-runs)').screenshot({ path: path.join(ARTIFACTS, 'dashboard-autonomous-gait.png') });
     });
   }
 

@@ -2,7 +2,8 @@
 // runs it: `cpgait run` with the gait stage tuning its controller (no residuals), then `cpgait gait`
 // replaying the tuned CPG at other speed knobs. The targets: 10 s without falling, strides of
 // the cycle / speed within 5 %, rotations within 5 deg RMS of the trial's cycle, walking speed rising
-// with the knob.
+// with the knob; and walk -> stand: it stops within two strides and stands 3 s with its centre of
+// mass over its feet.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,7 +19,7 @@ using namespace cpgait;
 // Measured (this test: 600 simulations over rounds of 5 and 10 s, 60 s on 2 cores; the tuner's
 // starting gains already walked 10 s, the search improved the tracking): 10 s at 0.8, 1 and 1.2;
 // strides 2.3 %, 0.0 %, 1.5 % off cycle / speed; 0.83, 1.07, 1.33 m/s.
-TEST(GaitGait10dof, TunedCpgWalksTenSecondsAtEverySpeedKnob) {
+TEST(GaitGait10dof, TunedCpgWalksTenSecondsAtEverySpeedKnobAndStops) {
   const std::string d = refdata::shared_path("opensim/gait10dof18musc/");
   for (const char* f : {"OutputReference/subject01.osim", "ExperimentalData/subject01_walk.trc", "ExperimentalData/subject01_walk_grf.mot",
                         "ExperimentalData/subject01_walk_grf.xml", "IK/walk_Setup_IK.xml"})
@@ -58,5 +59,21 @@ TEST(GaitGait10dof, TunedCpgWalksTenSecondsAtEverySpeedKnob) {
     EXPECT_GT(m["speed_m_s"].get<double>(), last_speed) << knob;
     last_speed = m["speed_m_s"].get<double>();
   }
+  // Walk -> stand from 4.5 s: the walk freezes at the next stop phase (within a cycle), comes to rest
+  // within two strides of that and stands on to the end (5 s or more here).
+  const refdata::CliRun stop = refdata::run_cpgait("gait --model " + d + "OutputReference/subject01.osim --cpg " + dir +
+                                                   "/run/subject01_walk_cpg_tuned.json --kinematics " + dir +
+                                                   "/run/subject01_walk_ik.mot --duration 10 --stop-at 4.5 -o " + dir + "/stop");
+  ASSERT_EQ(stop.status, 0) << stop.output;
+  const nlohmann::json m = nlohmann::json::parse(text::read_file(dir + "/stop_gait.json"));
+  std::printf("[ info ] walk -> stand: %s\n", m["stand"].dump().c_str());
+  EXPECT_TRUE(m["fell_at_s"].is_null()) << m.dump();
+  ASSERT_TRUE(m.contains("stand")) << m.dump();
+  const double frozen = m["stand"]["frozen_at_s"].get<double>();
+  EXPECT_GE(frozen, 4.5);
+  EXPECT_LT(frozen, 4.5 + cycle_s);
+  ASSERT_TRUE(m["stand"]["stopped_at_s"].is_number()) << m.dump();
+  EXPECT_LT(m["stand"]["stopped_at_s"].get<double>() - frozen, 2 * cycle_s);
+  EXPECT_GE(m["stand"]["stood_s"].get<double>(), 3.0);
   std::filesystem::remove_all(dir);
 }

@@ -339,7 +339,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const std::string dir = cpgait::refdata::temp_dir("cli_tune");
   const std::string model = cpgait::refdata::fixture("models/walker.osim");
   ASSERT_EQ(run("synth --model " + model + " --duration 4 -o " + dir + "/w.trc").status, 0);
-  std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0}})";
+  std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "speed_knobs": [0.8], "schedule_evaluations": 4}})";
   const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json gait = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_gait.json"));
@@ -351,6 +351,11 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const nlohmann::json tuned = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_cpg_tuned.json"));
   ASSERT_TRUE(tuned.contains("controller"));
   EXPECT_EQ(tuned["controller"]["reflex_kp"].get<double>(), gait["tuning"]["controller"]["reflex_kp"].get<double>());
+  // schedule_evaluations: a controller tuned again at knob 0.8, stored beside the one at knob 1.
+  ASSERT_EQ(tuned["controller_schedule"].size(), 1u) << tuned.dump();
+  EXPECT_EQ(tuned["controller_schedule"][0]["speed"].get<double>(), 0.8);
+  ASSERT_EQ(gait["tuning"]["schedule"].size(), 1u);
+  EXPECT_GE(gait["tuning"]["schedule"][0]["simulations"].get<int>(), 4);
   const CliRun replay = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
                             "/out/w_ik.mot --duration 0.5 -o " + dir + "/replay");
   ASSERT_EQ(replay.status, 0) << replay.output;
@@ -363,6 +368,33 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   ASSERT_GE(staged.num_rows(), replayed.num_rows());
   ASSERT_GT(replayed.num_rows(), 100);
   EXPECT_LT((staged.data.topRows(replayed.num_rows()) - replayed.data).cwiseAbs().maxCoeff(), 1e-6);  // as printed
+  // The stage's walk at speed knob 0.8 is the replay's at that knob, its stride compared with the
+  // cycle / 0.8.
+  ASSERT_EQ(gait["speed_knobs"].size(), 1u) << gait.dump();
+  const nlohmann::json& slow = gait["speed_knobs"][0];
+  EXPECT_EQ(slow["speed_knob"].get<double>(), 0.8);
+  EXPECT_NEAR(slow["cycle_over_speed_s"].get<double>(), gait["cycle_over_speed_s"].get<double>() / 0.8, 1e-9);
+  EXPECT_EQ(slow["file"].get<std::string>(), "w_gait_speed_0.8.mot");
+  const CliRun replay_slow = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                                 "/out/w_ik.mot --duration 0.5 --speed 0.8 -o " + dir + "/slow");
+  ASSERT_EQ(replay_slow.status, 0) << replay_slow.output;
+  const cpgait::Storage staged_slow = cpgait::read_storage(dir + "/out/w_gait_speed_0.8.mot"), replayed_slow = cpgait::read_storage(dir + "/slow_gait.mot");
+  ASSERT_GE(staged_slow.num_rows(), replayed_slow.num_rows());
+  EXPECT_LT((staged_slow.data.topRows(replayed_slow.num_rows()) - replayed_slow.data).cwiseAbs().maxCoeff(), 1e-6);
+  // Tuned again at knob 0.8 (over a ground step and through a push too, the worst rotation bounded),
+  // the CPG keeps its controller and its schedule entry there is replaced.
+  const CliRun retune = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                            "/out/w_ik.mot --duration 0.5 --speed 0.8 --tune 4 --tune-horizon 0.5 --tune-steps -0.01 --tune-pushes 0 0 -1 --tune-rotation-limit 5 -o " +
+                            dir + "/k08");
+  ASSERT_EQ(retune.status, 0) << retune.output;
+  const nlohmann::json scheduled = nlohmann::json::parse(cpgait::text::read_file(dir + "/k08_cpg_tuned.json"));
+  EXPECT_EQ(scheduled["controller"], tuned["controller"]);
+  ASSERT_EQ(scheduled["controller_schedule"].size(), 1u);
+  EXPECT_EQ(scheduled["controller_schedule"][0]["speed"].get<double>(), 0.8);
+  const CliRun bad_push = run("gait --model " + model + " --cpg " + dir + "/k08_cpg_tuned.json --kinematics " + dir +
+                              "/out/w_ik.mot --duration 0.5 --tune 2 --tune-pushes 0 0 -o " + dir + "/bad");
+  EXPECT_EQ(bad_push.status, 2) << bad_push.output;
+  EXPECT_NE(bad_push.output.find("three numbers (x y z) per push"), std::string::npos) << bad_push.output;
   fs::remove_all(dir);
 }
 

@@ -194,6 +194,55 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
 }
 
+// A gain schedule over the speed knob: at a tuned knob its own controller and amplitude; between two,
+// reflex gains and amplitude geometrically and balance gains linearly interpolated; held beyond the
+// ends; the start and beginning the CPG controller's. It round-trips through the JSON, and an entry
+// at a knob that is not positive is refused naming it.
+TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
+  CpgModel m = random_pair_model(5, 4);
+  m.muscle_names = {"a", "b", "c", "d"};
+  m.amplitude = 0.6;
+  m.controller = CpgController{100, 10, true, false, 2.0, 2.0, 0.3, 0.1, 0.5, 0.0, 0.618, 0.25, 1.0};
+  const CpgController slow{400, 40, true, false, 4.0, 1.0, 0.7, 0.3, 0.9, -0.1, 9.0, 9.0, 0.8};
+  const CpgController fast{200, 20, true, false, 3.0, 3.0, 0.5, 0.2, 0.7, 0.1, 9.0, 9.0, 1.2};
+  m.speed_schedule = {{fast, 0.5}, {slow, 1.2}};  // any order
+  const CpgModel at09 = scheduled_at_speed(m, 0.9);
+  const CpgController& k = *at09.controller;
+  EXPECT_NEAR(k.reflex_kp, 200, 1e-9);  // sqrt(400 x 100)
+  EXPECT_NEAR(k.reflex_kv, 20, 1e-9);
+  EXPECT_NEAR(k.trunk_kp, 3.0, 1e-12);
+  EXPECT_NEAR(k.sagittal_v, -0.05, 1e-12);
+  EXPECT_NEAR(at09.amplitude, std::sqrt(1.2 * 0.6), 1e-12);
+  EXPECT_EQ(k.start_time_s, 0.618);
+  EXPECT_EQ(k.begin_time_s, 0.25);
+  EXPECT_EQ(k.speed, 0.9);
+  EXPECT_NEAR(scheduled_at_speed(m, 1.1).controller->lateral_d, 0.4, 1e-12);
+  EXPECT_NEAR(scheduled_at_speed(m, 1.1).amplitude, std::sqrt(0.6 * 0.5), 1e-12);
+  for (double knob : {0.8, 0.5}) {
+    const CpgModel held = scheduled_at_speed(m, knob);
+    EXPECT_EQ(held.controller->reflex_kp, 400) << knob;
+    EXPECT_EQ(held.amplitude, 1.2) << knob;
+  }
+  EXPECT_EQ(scheduled_at_speed(m, 1.0).controller->reflex_kp, 100);
+  EXPECT_EQ(scheduled_at_speed(m, 1.7).controller->trunk_kv, 3.0);
+  const CpgModel back = CpgModel::from_json(m.to_json(), "model.json");
+  ASSERT_EQ(back.speed_schedule.size(), 2u);
+  EXPECT_EQ(back.speed_schedule[1].controller.speed, 0.8);
+  EXPECT_EQ(back.speed_schedule[1].amplitude, 1.2);
+  EXPECT_EQ(scheduled_at_speed(back, 0.9).controller->reflex_kp, k.reflex_kp);
+  nlohmann::json bad = m.to_json();
+  bad["controller_schedule"][1]["speed"] = 0.0;
+  try {
+    CpgModel::from_json(bad, "model.json");
+    ADD_FAILURE() << "a schedule entry at knob 0 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("controller_schedule[1].speed"), std::string::npos) << e.what();
+  }
+  bad = m.to_json();
+  bad.erase("controller");
+  EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);  // a schedule without the controller it extends
+}
+
 // The pattern layer: narrow bursts at any phase (and a muscle with two bursts a cycle), which a
 // rhythm layer's broad half-waves cannot reproduce, are fitted by each muscle's own neurons; the
 // assembled network, run as a CPG, reproduces the fit.

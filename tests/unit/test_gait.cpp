@@ -7,6 +7,7 @@
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/gait/simbicon_balance.h"
+#include "cpgait/gait/tune_gait_controller.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/capture/input_error.h"
@@ -276,40 +277,73 @@ TEST(ContactSet, StepEdgeRidesOnTheBelt) {
   EXPECT_LT(sphere_contact_force(s, set, Eigen::Vector3d(1.0, 0.02 + s.radius_m - 0.001, 0), Eigen::Vector3d::Zero(), 0.0).norm(), 1e-6);
 }
 
-// Walk -> stand: after the transition the CPG's excitations are gone (the muscles at their minimum
-// without reflexes) and the reflexes' targets are the reference cycle's mean pose.
-TEST(ReproducedGait, StopFadesTheCpgAndTurnsTheTargetsToTheMeanPose) {
+// Walk -> stand: past stop_time_s the walk goes on to the stop phase, then freezes: the reference
+// pose stays that of the stop phase, at rest, and the CPG's excitations hold (no reflexes here).
+//
+// The stop was chosen on gait10dof18musc (tuned controller, stop from 4.5 s, 12 s; measured): frozen
+// at phase 0.8 it fell at 8.0 s and at 0.85 at 7.1 s; at 0.9, 0.95 and 0.0 it came to rest within
+// 0.5-1 s and stood to the end; at 0.05 it came to rest only at 10.45 s. The stop before it faded the
+// CPG out and turned the reflexes' targets to the cycle's mean pose: gait10dof18musc came to rest on
+// its toes and tipped over about 4 s later; subject01 fell 1-1.6 s after the stop. subject01 still
+// falls, sideways, 1.3-2 s after a freeze at every phase tried (0, 0.03, 0.06, 0.1, 0.5, 0.53, 0.56,
+// 0.9, 0.95), with the CPG's excitations held or halved.
+TEST(ReproducedGait, StopFreezesTheWalkAtItsStopPhase) {
   StillWalker w;
   const int nq = w.m.num_coordinates();
-  // A reference that moves: the hips swing, so the mean pose differs from every instant's.
+  // A reference that moves: the hip swings once a CPG cycle.
   Eigen::MatrixXd q = w.m.default_coordinates().transpose().replicate(static_cast<Eigen::Index>(w.t.size()), 1);
   const int hip = w.m.coordinate_index("hip_flexion_r");
   for (std::size_t i = 0; i < w.t.size(); ++i) q(static_cast<Eigen::Index>(i), hip) = 0.3 + 0.2 * std::sin(2 * M_PI * w.t[i] / w.cpg.cycle_s);
   const Storage reference = make_storage("swing", coordinate_names(w.m), w.t, q, false);
   ReproducedGaitOptions o;
   o.start_time_s = 0.5;
+  o.begin_time_s = 0.5;
   o.duration_s = 0.5;
   o.reflex_kp = o.reflex_kv = 0;
   o.stop_time_s = 0.1;
-  o.stop_over_s = 0.2;
+  o.stop_phase = 0.4;
   const ReproducedGaitResult r = reproduce_gait(w.m, w.cpg, reference, w.feet, o);
   ASSERT_GT(r.time_s.size(), 400u);
-  const Eigen::Index walking = 50, standing = 400;
-  double min_excitation = 0, cpg_excitation = 0;
-  for (int k = 0; k < static_cast<int>(w.m.muscles.size()); ++k) {
-    min_excitation = std::max(min_excitation, std::abs(r.excitations(standing, k) - w.m.muscles[k].min_control));
-    cpg_excitation = std::max(cpg_excitation, r.excitations(walking, k) - w.m.muscles[k].min_control);
-  }
-  EXPECT_LT(min_excitation, 1e-12);
-  EXPECT_GT(cpg_excitation, 0.01);
-  // The mean of the hip's swing over a cycle after the heel strike: 0.3 rad.
-  EXPECT_NEAR(r.q_reference(standing, hip), 0.3, 2e-3);
-  EXPECT_GT(std::abs(r.q_reference(walking, hip) - 0.3), 0.01);
+  // The phase reaches 0.4 at 0.4 cycles after the start's heel strike (at the beginning here).
+  const double dt = o.control_interval_s;
+  EXPECT_NEAR(r.frozen_at_s, 0.4 * w.cpg.cycle_s, dt + 1e-9);
+  const Eigen::Index frozen = static_cast<Eigen::Index>(std::lround(r.frozen_at_s / dt));
+  const Eigen::Index walking = frozen / 2, last = static_cast<Eigen::Index>(r.time_s.size()) - 1;
+  // The hip's target: the reference at the stop phase, from the freeze to the end.
+  const double at_stop = 0.3 + 0.2 * std::sin(2 * M_PI * (o.start_time_s / w.cpg.cycle_s + 0.4));
+  EXPECT_NEAR(r.q_reference(last, hip), at_stop, 0.2 * 2 * M_PI * dt / w.cpg.cycle_s);
+  EXPECT_GT(std::abs(r.q_reference(walking, hip) - r.q_reference(last, hip)), 0.01);
+  EXPECT_LT((r.q_reference.row(last) - r.q_reference.row(frozen + 1)).cwiseAbs().maxCoeff(), 1e-12);
+  // The CPG's excitations: moving before the freeze, held after it.
+  EXPECT_GT((r.excitations.row(walking) - r.excitations.row(frozen - 1)).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_LT((r.excitations.row(last) - r.excitations.row(frozen + 1)).cwiseAbs().maxCoeff(), 1e-12);
   for (int c = 0; c < nq; ++c) {
     if (c != hip && w.m.coordinates[c].is_angle()) {
-      EXPECT_NEAR(r.q_reference(standing, c), q(0, c), 1e-9) << w.m.coordinates[c].name;
+      EXPECT_NEAR(r.q_reference(last, c), q(0, c), 1e-9) << w.m.coordinates[c].name;
     }
   }
+}
+
+// The tuner's extra walks and bound enter each candidate's cost: a ground step of zero height is the
+// level walk again (the cost unchanged), a bound on the worst rotation far above it changes nothing,
+// one far below it costs more than a fall.
+TEST(GaitTuning, GroundStepsAndTheRotationBoundEnterTheCost) {
+  StillWalker w;
+  ReproducedGaitOptions o;
+  o.start_time_s = 0.5;
+  GaitTuningOptions t;
+  t.evaluations = 2;
+  t.horizon_s = 0.3;
+  t.num_threads = 1;
+  const double level = tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, t).summary.start_cost;
+  GaitTuningOptions flat_step = t;
+  flat_step.ground_steps_m = {0.0};
+  EXPECT_NEAR(tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, flat_step).summary.start_cost, level, 1e-12);
+  GaitTuningOptions loose = t, tight = t;
+  loose.worst_rotation_limit_deg = 1e6;
+  tight.worst_rotation_limit_deg = 1e-6;
+  EXPECT_NEAR(tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, loose).summary.start_cost, level, 1e-12);
+  EXPECT_GT(tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, tight).summary.start_cost, level + t.fall_weight);
 }
 
 // Joints no muscle crosses (the walker's back) are held at the trial's mean as a locked joint would

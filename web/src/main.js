@@ -173,6 +173,9 @@ function optionInput(stage, key, field) {
       min: field.minimum, max: field.maximum }, common));
   }
   if (field.type === 'string') return h('input', Object.assign({ type: 'text', placeholder: field.default ?? '' }, common));
+  if (field.type === 'array' && field.items && field.items.type === 'number') {
+    return h('input', Object.assign({ type: 'text', placeholder: (field.default || []).join(' ') || 'none' }, common));
+  }
   return null;  // objects (IK task weights) come from files, not the form
 }
 // The muscle-activity estimate the CPG is fitted to (the options' "activation"), when the server offers a choice.
@@ -209,6 +212,7 @@ function changedOptions(form) {
     if (type === 'boolean') value = input.checked;
     else if (input.tagName === 'SELECT') value = input.value;
     else if (input.value === '') continue;
+    else if (type === 'array') value = input.value.split(/[\s,]+/).filter((x) => x).map(Number);
     else value = type === 'number' || type === 'integer' ? Number(input.value) : input.value;
     const dflt = input.tagName === 'SELECT' ? input.querySelector('option[selected]')?.value : type === 'boolean' ? input.defaultChecked : undefined;
     if (dflt !== undefined && value === dflt) continue;
@@ -603,6 +607,7 @@ async function trialView(id) {
     draw();
     window.__cpgait.plots.gaitResiduals = linePlot(rbox, residuals.columns[0], residuals.labels.slice(1).map((l) => ({ label: l, values: column(residuals, l) })),
       'pelvis residual (N·m, N), time since the start (s)', since);
+    gaitCycleCard(card, gaitSummary, cycles);
   } else {
     card('Reproduced gait vs measured', h('p', { class: 'muted' }, gaitSummary.not_run ? `Not run: ${gaitSummary.not_run}.` : 'Not computed for this trial (the gait stage was not run).'));
   }
@@ -657,6 +662,49 @@ async function trialView(id) {
   window.__cpgait.setFrame = show;
   show(0);
   window.__cpgait.ready = true;
+}
+
+// The reproduced gait over the gait cycle against the trial's, and its walks at other speed knobs
+// side by side: per coordinate, the trial's mean ± SD (right strides), the simulation's strides and
+// mean ± SD, each knob's mean ± SD; and a table of each walk's strides, speed and fall.
+function gaitCycleCard(card, summary, cycles) {
+  const panel = (name) => cycles && cycles.panels.find((p) => p.name === name);
+  const sim = panel('gait');
+  const runs = [Object.assign({ speed_knob: 1, panel: sim }, summary)].concat((summary.speed_knobs || []).map((r) => Object.assign({}, r, { panel: panel(`gait_speed_${r.speed_knob}`) })));
+  const strides = (r, side) => Math.max(0, ((r.heel_strikes_s || {})[side] || []).length - 1);
+  const table = h('table', { id: 'gait-runs' },
+    h('tr', {}, ['Speed knob', 'Walked', 'Strides R / L', 'Stride (s)', 'Cycle / knob (s)', 'Stride length (m)', 'Speed (m/s)'].map((x) => h('th', {}, x))),
+    runs.map((r) => h('tr', { 'data-knob': r.speed_knob, class: r.fell_at_s == null ? '' : 'fell' },
+      h('td', {}, `${r.speed_knob}×`), h('td', {}, r.fell_at_s == null ? `${fmt(r.simulated_s, 1)} s, did not fall` : `fell at ${fmt(r.fell_at_s, 2)} s`),
+      h('td', {}, `${strides(r, 'right')} / ${strides(r, 'left')}`), h('td', {}, fmt(r.stride_time_s, 3)),
+      h('td', {}, `${fmt(r.cycle_over_speed_s, 3)}${r.stride_time_s > 0 && r.cycle_over_speed_s ? ` (${fmt(100 * (r.stride_time_s / r.cycle_over_speed_s - 1), 1)} %)` : ''}`),
+      h('td', {}, fmt(r.stride_length_m, 2)), h('td', {}, fmt(r.speed_m_s, 2)))));
+  const box = h('div', { id: 'plot-gait-cycle' });
+  const trialPanel = panel('kinematics');
+  const names = sim ? sim.series.map((s) => s.name).filter((n) => !/^pelvis_t[xyz]$/.test(n)) : [];
+  const sel = h('select', { id: 'gait-cycle-quantity' }, names.map((n) => h('option', { value: n, selected: n === 'knee_angle_r' }, n)));
+  const residuals = summary.pelvis_residuals ? 'with pelvis residual actuators' : 'on its own (no residual actuators)';
+  card('Reproduced gait over the gait cycle, and its speed knobs', h('div', { class: 'muted' },
+    `The CPG-driven model ${residuals}: every simulated stride from its own heel strikes against the trial's strides, and the same controller at the other speed knobs.`),
+  table, sim ? h('div', { class: 'controls' }, sel) : h('p', { class: 'muted' }, 'No simulated stride to plot.'), box);
+  if (!sim) return;
+  const draw = () => {
+    const q = sel.value;
+    const groups = [];
+    const measured = trialPanel && trialPanel.series.find((s) => s.name === q);
+    if (measured) groups.push({ label: 'trial', color: '#6b7280', strides: measured.strides, mean: measured.mean, sd: measured.sd });
+    runs.forEach((r, i) => {
+      const s = r.panel && r.panel.series.find((x) => x.name === q);
+      if (s) groups.push({ label: `simulated ${r.speed_knob}×`, color: COLORS[i % COLORS.length], strides: i === 0 ? s.strides : [], mean: s.mean, sd: s.sd, all: s.strides });
+    });
+    box.replaceChildren();
+    const unit = (measured || {}).unit || 'deg';
+    window.__cpgait.plots.gaitCycle = cyclePlot(box, cycles.percent, groups, `${q} (${unit})`, null);
+    window.__cpgait.plots.gaitCycle.groups = groups.map((g) => ({ label: g.label, strides: (g.all || g.strides).length, mean50: g.mean[50],
+      strides50: (g.all || g.strides).map((x) => x[50]) }));
+  };
+  sel.addEventListener('change', draw);
+  draw();
 }
 
 route();

@@ -1,5 +1,6 @@
 // The reproduced gait: the fitted CPG drives the muscles on contact spheres fitted to the trial's feet.
 #include <algorithm>
+#include <cstdio>
 
 #include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/dynamics/contact.h"
@@ -19,6 +20,8 @@ struct GaitStageOptions {
   int tune_evaluations = 0;
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
+  std::vector<double> speed_knobs;
+  int schedule_evaluations = 0;
 
   static const OptionFields<GaitStageOptions>& fields() {
     static const OptionFields<GaitStageOptions> f =
@@ -37,10 +40,73 @@ struct GaitStageOptions {
             .number("tune_horizon_s", &GaitStageOptions::tune_horizon_s, "s", "simulated time per tuning candidate",
                     NumberRange{0.5, 30.0, true})
             .integer("tune_rounds", &GaitStageOptions::tune_rounds, 1, 10,
-                     "CMA-ES restarts, each from the last best, their horizons rising evenly to tune_horizon_s");
+                     "CMA-ES restarts, each from the last best, their horizons rising evenly to tune_horizon_s")
+            .number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
+                         "more walks, each as long as the first, at these CPG speed knobs (times the trial's cadence), the controller "
+                         "scheduled for each knob where the CPG holds controllers tuned at several; their motions go to "
+                         "_gait_speed_<knob>.mot, their strides and falls to the summary's speed_knobs",
+                         NumberRange{0.2, 3.0, true}, 8)
+            .integer("schedule_evaluations", &GaitStageOptions::schedule_evaluations, 0, 5000,
+                     "after tuning, tune the controller again at each of speed_knobs with this many simulations, each from the "
+                     "controller at knob 1: a gain schedule over the knob, stored in _cpg_tuned.json (0: one controller at every knob)");
     return f;
   }
 };
+
+// A knob's name in file names: "0.8", "1.25".
+std::string knob_text(double knob) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", knob);
+  return buf;
+}
+
+// The CPG's walks at other speed knobs, with the same options otherwise: each one's motion to
+// _gait_speed_<knob>.mot, its strides and falls (the stride against the CPG's cycle / knob) returned.
+nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& feet,
+                                   const ReproducedGaitOptions& options, const std::vector<double>& knobs) {
+  nlohmann::json runs = nlohmann::json::array();
+  for (double knob : knobs) {
+    const CpgModel driving = scheduled_at_speed(cpg, knob);
+    ReproducedGaitOptions o = driving.controller ? with_controller(*driving.controller, options) : options;
+    o.speed = knob;
+    const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, o);
+    const std::string file = "_gait_speed_" + knob_text(knob) + ".mot";
+    trial.write(reproduced_gait_motion_table(model, g), file);
+    runs.push_back({{"speed_knob", knob}, {"file", trial.inputs.name + file}, {"simulated_s", g.time_s.empty() ? 0.0 : g.time_s.back()},
+                    {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)},
+                    {"heel_strikes_s", {{"right", g.heel_strikes_r_s}, {"left", g.heel_strikes_l_s}}},
+                    {"stride_time_s", g.stride_time_s}, {"cycle_over_speed_s", cpg.cycle_s / (cpg.speed * knob)},
+                    {"stride_length_m", g.stride_length_m}, {"speed_m_s", g.speed_m_s}, {"distance_m", g.distance_m},
+                    {"worst_rotation_rms_deg", g.worst_rotation_rms_rad * 180 / M_PI}, {"amplitude", driving.amplitude}});
+  }
+  return runs;
+}
+
+// The stage's tuning: the controller at knob 1, then (schedule_evaluations) a schedule entry at each
+// speed knob; the tuned CPG to _cpg_tuned.json. Returns the summary's "tuning".
+nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel& driving, const Storage& reference, const ContactSet& feet,
+                              const ReproducedGaitOptions& go, const GaitStageOptions& o) {
+  GaitTuningOptions to;
+  to.evaluations = o.tune_evaluations;
+  to.horizon_s = o.tune_horizon_s;
+  to.rounds = o.tune_rounds;
+  const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, trial.progress);
+  driving = tuned.cpg;
+  nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
+                           {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
+                           {"horizon_s", to.horizon_s}, {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
+  to.evaluations = o.schedule_evaluations;
+  for (double knob : o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{}) {
+    ReproducedGaitOptions at = go;
+    at.speed = knob;
+    const GaitTuningResult k = tune_gait_controller(model, driving, reference, feet, at, to, trial.progress);
+    driving = k.cpg;
+    tuning["schedule"].push_back({{"speed_knob", knob}, {"simulations", k.summary.evaluations}, {"seconds", k.summary.seconds},
+                                  {"walked_s", {k.summary.start_walked_s, k.summary.walked_s}}});
+  }
+  trial.write_text(json_text(driving.to_json(), 2) + "\n", "_cpg_tuned.json");
+  return tuning;
+}
 
 class GaitStage final : public StageWithOptions<GaitStageOptions> {
  public:
@@ -48,7 +114,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
   std::string description() const override { return "reproduced gait: the CPG-driven muscles walk the model on contact spheres"; }
   std::vector<std::string> needs() const override { return {"cpg"}; }
   std::vector<std::string> writes() const override {
-    return {"_gait.mot", "_gait_residuals.sto", "_gait_contact_forces.sto", "_gait.json", "_cpg_tuned.json (when tuned)"};
+    return {"_gait.mot", "_gait_residuals.sto", "_gait_contact_forces.sto", "_gait.json", "_cpg_tuned.json (when tuned)",
+            "_gait_speed_<knob>.mot (speed_knobs)"};
   }
   std::vector<std::string> tables() const override { return {"_gait.mot", "_gait_residuals.sto"}; }
 
@@ -83,20 +150,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
     CpgModel driving = cpg->model;
-    nlohmann::json tuning;
-    if (o.tune_evaluations > 0) {
-      GaitTuningOptions to;
-      to.evaluations = o.tune_evaluations;
-      to.horizon_s = o.tune_horizon_s;
-      to.rounds = o.tune_rounds;
-      const GaitTuningResult tuned = tune_gait_controller(model, cpg->model, reference, feet, go, to, trial.progress);
-      driving = tuned.cpg;
-      trial.write_text(json_text(driving.to_json(), 2) + "\n", "_cpg_tuned.json");
-      tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
-                {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                {"horizon_s", to.horizon_s}, {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
-    }
-    if (driving.controller) go = with_controller(*driving.controller, go);  // a tuned CPG walks as it was tuned
+    const nlohmann::json tuning = o.tune_evaluations > 0 ? tune_for_stage(trial, model, driving, reference, feet, go, o) : nlohmann::json();
+    if (driving.controller) go = with_controller(*scheduled_at_speed(driving, go.speed).controller, go);  // as it was tuned
     // Walking on its own, as long as the trial and at least 10 s (issue 22); held by residuals, which
     // need the trial's pelvis, what the trial has.
     if (!o.duration_s && !go.pelvis_residuals) go.duration_s = std::max(10.0, available);
@@ -112,6 +167,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
     summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
+    summary["cycle_over_speed_s"] = driving.cycle_s / (driving.speed * go.speed);
+    if (!o.speed_knobs.empty()) summary["speed_knobs"] = walk_at_speed_knobs(trial, model, driving, reference, feet, go, o.speed_knobs);
     trial.write_text(json_text(summary, 2) + "\n", "_gait.json");
     return summary;
   }

@@ -571,7 +571,41 @@ nlohmann::json CpgModel::to_json() const {
           {"feedback", {{"signals", feedback_signals}, {"gains", mat(feedback_gains)}}}};
   if (controller)
     j["controller"] = controller->to_json();
+  for (const ScheduledController& e : speed_schedule) {
+    nlohmann::json k = e.controller.to_json();
+    k["amplitude"] = e.amplitude;
+    j["controller_schedule"].push_back(k);
+  }
   return j;
+}
+
+CpgModel scheduled_at_speed(const CpgModel& cpg, double knob) {
+  if (!cpg.controller || cpg.speed_schedule.empty()) return cpg;
+  std::vector<ScheduledController> tuned = cpg.speed_schedule;
+  tuned.push_back({*cpg.controller, cpg.amplitude});
+  std::sort(tuned.begin(), tuned.end(), [](const auto& a, const auto& b) { return a.controller.speed < b.controller.speed; });
+  std::size_t hi = 0;
+  while (hi + 1 < tuned.size() && tuned[hi].controller.speed < knob) ++hi;
+  const std::size_t lo = hi > 0 && tuned[hi].controller.speed > knob ? hi - 1 : hi;
+  const ScheduledController &a = tuned[lo], &b = tuned[hi];
+  const double span = b.controller.speed - a.controller.speed;
+  const double w = span > 0 ? std::clamp((knob - a.controller.speed) / span, 0.0, 1.0) : 0.0;
+  // At a tuned knob (w 0 or 1), its own values exactly.
+  auto lin = [w](double x, double y) { return w == 0 ? x : w == 1 ? y : (1 - w) * x + w * y; };
+  auto geo = [&](double x, double y) { return w == 0 || w == 1 || !(x > 0 && y > 0) ? lin(x, y) : std::exp((1 - w) * std::log(x) + w * std::log(y)); };
+  CpgModel m = cpg;
+  CpgController& k = *m.controller;
+  k.reflex_kp = geo(a.controller.reflex_kp, b.controller.reflex_kp);
+  k.reflex_kv = geo(a.controller.reflex_kv, b.controller.reflex_kv);
+  k.trunk_kp = lin(a.controller.trunk_kp, b.controller.trunk_kp);
+  k.trunk_kv = lin(a.controller.trunk_kv, b.controller.trunk_kv);
+  k.lateral_d = lin(a.controller.lateral_d, b.controller.lateral_d);
+  k.lateral_v = lin(a.controller.lateral_v, b.controller.lateral_v);
+  k.sagittal_d = lin(a.controller.sagittal_d, b.controller.sagittal_d);
+  k.sagittal_v = lin(a.controller.sagittal_v, b.controller.sagittal_v);
+  k.speed = knob;
+  m.amplitude = geo(a.amplitude, b.amplitude);
+  return m;
 }
 
 nlohmann::json CpgController::to_json() const {
@@ -581,6 +615,7 @@ nlohmann::json CpgController::to_json() const {
           {"pelvis_residuals", pelvis_residuals},
           {"start_time_s", start_time_s},
           {"begin_time_s", begin_time_s},
+          {"speed", speed},
           {"trunk_kp", trunk_kp},
           {"trunk_kv", trunk_kv},
           {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}}};
@@ -631,8 +666,8 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
     } else {
       m.feedback_gains = Eigen::MatrixXd::Zero(N, 0);
     }
-    if (j.contains("controller")) {
-      const auto& c = j["controller"];
+    // A controller's JSON (CpgController::to_json); field: where it sits, for errors.
+    auto controller = [&](const nlohmann::json& c, const std::string& field) {
       CpgController k;
       k.reflex_kp = c.value("reflex_kp", k.reflex_kp);
       k.reflex_kv = c.value("reflex_kv", k.reflex_kv);
@@ -640,6 +675,7 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
       k.pelvis_residuals = c.value("pelvis_residuals", k.pelvis_residuals);
       k.start_time_s = c.value("start_time_s", k.start_time_s);
       k.begin_time_s = c.value("begin_time_s", k.begin_time_s);
+      k.speed = c.value("speed", k.speed);
       k.trunk_kp = c.value("trunk_kp", k.trunk_kp);
       k.trunk_kv = c.value("trunk_kv", k.trunk_kv);
       if (c.contains("foot_placement")) {
@@ -650,9 +686,21 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         k.sagittal_v = fp.value("sagittal_v_s", k.sagittal_v);
       }
       for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v})
-        if (!std::isfinite(v)) fail("controller", "balance gains must be finite numbers");
-      if (!(k.reflex_kp >= 0) || !(k.reflex_kv >= 0)) fail("controller.reflex_kp", "reflex gains must be non-negative");
-      m.controller = k;
+        if (!std::isfinite(v)) fail(field, "balance gains must be finite numbers");
+      if (!(k.reflex_kp >= 0) || !(k.reflex_kv >= 0)) fail(field + ".reflex_kp", "reflex gains must be non-negative");
+      if (!(k.speed > 0)) fail(field + ".speed", "the speed knob it was tuned at must be positive");
+      return k;
+    };
+    if (j.contains("controller")) m.controller = controller(j["controller"], "controller");
+    if (j.contains("controller_schedule")) {
+      if (!m.controller) fail("controller_schedule", "a schedule needs the controller it extends");
+      for (std::size_t i = 0; i < j["controller_schedule"].size(); ++i) {
+        const std::string field = "controller_schedule[" + std::to_string(i) + "]";
+        const auto& e = j["controller_schedule"][i];
+        ScheduledController s{controller(e, field), e.value("amplitude", m.amplitude)};
+        if (!(s.amplitude >= 0)) fail(field + ".amplitude", "must be non-negative");
+        m.speed_schedule.push_back(s);
+      }
     }
     return m;
   } catch (const nlohmann::json::exception& e) {

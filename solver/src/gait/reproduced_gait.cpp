@@ -152,25 +152,13 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     }
     phase_table = cpg_phase_table(cpg_in);
   }
-  // The standing pose for walk -> stand: the cycle's mean (over the template, or the reference's first
-  // cycle after the heel strike).
-  Eigen::VectorXd q_stand = Eigen::VectorXd::Zero(nq);
-  if (o.stop_time_s >= 0) {
-    if (!template_q.empty()) {
-      for (const auto& q : template_q) q_stand += q / kPhases;
-    } else {
-      Eigen::VectorXd q(nq), u(nq), a(nq);
-      for (int j = 0; j < kPhases; ++j) {
-        trajectories_at(ref, std::min(ref_end, o.start_time_s + static_cast<double>(j) / kPhases * cpg_in.cycle_s), q, u, a);
-        q_stand += q / kPhases;
-      }
-    }
-  }
-  const double stop_over_s = o.stop_over_s > 0 ? o.stop_over_s : cpg_in.cycle_s / (cpg_in.speed * o.speed);
-  // The walk's share at time t: 1 before the stop, 0 after it, smoothly between.
-  auto walking_share = [&](double t) {
-    if (o.stop_time_s < 0 || t <= o.stop_time_s) return 1.0;
-    const double s = std::min(1.0, (t - o.stop_time_s) / stop_over_s);
+  // Walk -> stand: the belt's share of its speed once the walk froze (frozen_at_s, < 0: walking),
+  // easing to 0 over stop_over_s.
+  const double stop_over_s = o.stop_over_s > 0 ? o.stop_over_s : 0.3;
+  double frozen_at_s = -1, phase_before = -1;
+  auto moving_share = [&](double t) {
+    if (frozen_at_s < 0) return 1.0;
+    const double s = std::min(1.0, (t - frozen_at_s) / stop_over_s);
     return 1.0 - s * s * (3 - 2 * s);
   };
   // The template at a phase (linear between samples, round the cycle), rates in simulated time; the
@@ -263,6 +251,15 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   Eigen::VectorXd tau_push = Eigen::VectorXd::Zero(nq);
   KinematicsWorkspace<double> push_kin(model);
   MotionSubspace push_S(model);
+  // A planar model (its root moves the body in the ground's x-y plane only) cannot fall sideways: its
+  // centre of mass is over its feet when it lies between the loaded spheres along x.
+  bool planar = true;
+  {
+    forward_kinematics(model, x.data(), push_kin);
+    motion_subspace(model, x.data(), push_kin, push_S);
+    const Eigen::Vector3d off_axis = push_kin.body_in_ground[pelvis_body].translation_m + Eigen::Vector3d::Constant(0.1);
+    for (int c : root) planar = planar && std::abs(point_velocity_column(push_S, c, off_axis).z()) < 1e-9;
+  }
   Eigen::VectorXd tau_root = Eigen::VectorXd::Zero(nq);  // the residuals, as generalized forces
   Eigen::MatrixXd root_columns = Eigen::MatrixXd::Zero(nq, static_cast<Eigen::Index>(root.size()));  // picks the root's
   for (std::size_t j = 0; j < root.size(); ++j) root_columns(root[j], static_cast<Eigen::Index>(j)) = 1.0;
@@ -344,16 +341,23 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   for (int k = 0; k <= steps; ++k) {
     if (progress && progress->cancelled()) throw std::runtime_error("reproduced gait cancelled");
     const double t = k * dt;
-    const double tau = tau0 + std::min(t, tracked_until) * o.speed;
+    // Walk -> stand: once past stop_time_s, the walk freezes where the cycle's phase (the CPG's, or the
+    // reference's by time) passes stop_phase.
+    if (o.stop_time_s >= 0 && frozen_at_s < 0 && t >= o.stop_time_s - 1e-9) {
+      const double cycles = (tau0 + std::min(t, tracked_until) * o.speed - o.start_time_s) / cpg_in.cycle_s;
+      const double phase = o.phase_indexed_reference ? cpg_phase(phase_table, neurons) : cycles - std::floor(cycles);
+      const double p = o.stop_phase;
+      if (phase_before >= 0 && (phase >= phase_before ? phase_before <= p && p < phase : p >= phase_before || p < phase)) frozen_at_s = t;
+      phase_before = phase;
+    }
+    const bool frozen = frozen_at_s >= 0;
+    const double tau = tau0 + std::min(frozen ? frozen_at_s : t, tracked_until) * o.speed;
     reference_at(tau, q_ref, u_ref, a_ref);
     if (o.phase_indexed_reference) template_at(cpg_phase(phase_table, neurons), q_ref, u_ref, a_ref);
-    const double walking = walking_share(t);
-    if (walking < 1) {
-      for (int c = 0; c < nq; ++c)
-        if (!root_translation[static_cast<std::size_t>(c)]) q_ref[c] = walking * q_ref[c] + (1 - walking) * q_stand[c];
-      u_ref *= walking;
-      a_ref *= walking;
-      contacts.ground_velocity_m_s = walking * belt_velocity;
+    if (frozen) {
+      u_ref.setZero();
+      a_ref.setZero();
+      contacts.ground_velocity_m_s = moving_share(t) * belt_velocity;
     }
     // The push over this interval, at the pelvis' origin now.
     tau_push.setZero();
@@ -420,7 +424,14 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       std::vector<Eigen::Vector2d> support;
       for (std::size_t sp = 0; sp < contacts.spheres.size(); ++sp)
         if (ws.contact_force_N[sp].y() > kContactThresholdN) support.emplace_back(ws.contact_point_m[sp].x(), ws.contact_point_m[sp].z());
-      rec_com_supported.push_back(inside_convex_hull(support, Eigen::Vector2d(com.x(), com.z())));
+      bool over = false;
+      if (planar) {
+        for (const auto& a : support)
+          for (const auto& b : support) over = over || (a.x() <= com.x() && com.x() <= b.x());
+      } else {
+        over = inside_convex_hull(support, Eigen::Vector2d(com.x(), com.z()));
+      }
+      rec_com_supported.push_back(over);
     }
     if (r.fell_at_s < 0 && height_coordinate >= 0 && x[height_coordinate] < o.fall_height_fraction * start_height) {
       r.fell_at_s = t;
@@ -439,10 +450,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       }
     }
     u_in = signals.empty() ? Eigen::VectorXd::Zero(network.size()) : Eigen::VectorXd(cpg.feedback_gains * sig);
-    matsuoka_step(network, neurons, dt, u_in, scratch);
+    if (!frozen) matsuoka_step(network, neurons, dt, u_in, scratch);  // frozen: its excitations hold
     cpg_excitation_now();
-    if (walking < 1)
-      for (int m = 0; m < nm; ++m) excitation[m] = model.muscles[m].min_control + walking * (excitation[m] - model.muscles[m].min_control);
     if (o.reflex_kp != 0 || o.reflex_kv != 0) {
       Eigen::VectorXd e = q_ref - x.head(nq), ed = u_ref - x.segment(nq, nq);
       if (legs.valid()) {
@@ -450,7 +459,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
         for (std::size_t i = 0; i < legs.pelvis_rotations.size(); ++i)
           e_pelvis[static_cast<Eigen::Index>(i)] = e[legs.pelvis_rotations[i]], ed_pelvis[static_cast<Eigen::Index>(i)] = ed[legs.pelvis_rotations[i]];
         simbicon_balance_feedback(contacts, legs, o.balance, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), reference_kin, e_pelvis,
-                                  ed_pelvis, walking * pelvis_velocity_ref, ws.contact_force_N, kContactThresholdN, e, ed);
+                                  ed_pelvis, moving_share(t) * pelvis_velocity_ref, ws.contact_force_N, kContactThresholdN, e, ed);
       }
       for (int c : root) e[c] = ed[c] = 0;
       const Eigen::VectorXd drive = ws.geometry.moment_arm_m * (o.reflex_kp * e + o.reflex_kv * ed);
@@ -482,14 +491,16 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.excitations.row(i) = rec_exc[i].transpose();
     r.contact_force_N.row(i) = rec_contact[i].transpose();
   }
-  r.tracking_rms = Eigen::VectorXd::Zero(nq);
-  int n_tracked = 0;
-  for (int i = 0; i < ns; ++i)
-    if (r.time_s[i] <= tracked_until + 1e-9) {
-      r.tracking_rms += (r.q.row(i) - r.q_reference.row(i)).transpose().cwiseAbs2();
-      ++n_tracked;
-    }
-  r.tracking_rms = (r.tracking_rms / std::max(1, n_tracked)).cwiseSqrt();
+  // RMS against the reference up to `until` s (and the reference's end).
+  auto tracking_rms_until = [&](double until) {
+    Eigen::VectorXd rms = Eigen::VectorXd::Zero(nq);
+    int n = 0;
+    for (int i = 0; i < ns; ++i)
+      if (r.time_s[i] <= std::min(until, tracked_until) + 1e-9) rms += (r.q.row(i) - r.q_reference.row(i)).transpose().cwiseAbs2(), ++n;
+    return Eigen::VectorXd((rms / std::max(1, n)).cwiseSqrt());
+  };
+  r.tracking_rms = tracking_rms_until(tracked_until);
+  r.tracking_rms_first_two_cycles = tracking_rms_until(2 * cpg_in.cycle_s / (cpg_in.speed * o.speed));
   for (int c = 0; c < nq; ++c)
     if (model.coordinates[c].is_angle() && r.tracking_rms[c] > r.worst_rotation_rms_rad) {
       r.worst_rotation_rms_rad = r.tracking_rms[c];
@@ -527,6 +538,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.speed_m_s = r.stride_length_m / r.stride_time_s;
   }
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
+  r.frozen_at_s = frozen_at_s;
   if (o.stop_time_s >= 0 && r.fell_at_s < 0 && !rec_pelvis_speed.empty()) {
     int i = static_cast<int>(rec_pelvis_speed.size());
     while (i > 0 && rec_pelvis_speed[static_cast<std::size_t>(i - 1)] < 0.1 && r.time_s[static_cast<std::size_t>(i - 1)] >= o.stop_time_s) --i;
@@ -586,8 +598,12 @@ std::string ReproducedGaitResult::BriefReport() const {
                 fell_at_s >= 0 ? ("fell at " + std::to_string(fell_at_s) + " s after " + std::to_string(distance_m) + " m").c_str()
                                : ("walked " + std::to_string(distance_m) + " m").c_str());
   std::string out = buf;
+  if (frozen_at_s >= 0) {
+    std::snprintf(buf, sizeof buf, "; froze at %.2f s", frozen_at_s);
+    out += buf;
+  }
   if (stopped_at_s >= 0) {
-    std::snprintf(buf, sizeof buf, "; came to rest at %.2f s and stood %.2f s with the centre of mass over the feet", stopped_at_s, stood_s);
+    std::snprintf(buf, sizeof buf, ", came to rest at %.2f s and stood %.2f s with the centre of mass over the feet", stopped_at_s, stood_s);
     out += buf;
   }
   return out;
@@ -618,7 +634,7 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   j["stride_length_m"] = r.stride_length_m;
   j["speed_m_s"] = r.speed_m_s;
   j["distance_m"] = r.distance_m;
-  if (r.stopped_at_s >= 0) j["stand"] = {{"stopped_at_s", r.stopped_at_s}, {"stood_s", r.stood_s}};
+  if (r.frozen_at_s >= 0) j["stand"] = {{"frozen_at_s", r.frozen_at_s}, {"stopped_at_s", r.stopped_at_s >= 0 ? nlohmann::json(r.stopped_at_s) : nlohmann::json(nullptr)}, {"stood_s", r.stood_s}};
   j["fell_at_s"] = r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr);
   j["pelvis_residual_force_percent_bw"] = r.mean_residual_force_percent_bw;
   j["pelvis_residual_moment_Nm"] = r.mean_residual_moment_Nm;
@@ -626,6 +642,10 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   for (int c = 0; c < model.num_coordinates(); ++c)
     rms[r.coordinate_names[c]] = model.coordinates[c].is_angle() ? r.tracking_rms[c] * 180 / M_PI : r.tracking_rms[c];
   j["tracking_rms_deg_or_m"] = rms;
+  nlohmann::json first = nlohmann::json::object();
+  for (int c = 0; c < model.num_coordinates(); ++c)
+    first[r.coordinate_names[c]] = r.tracking_rms_first_two_cycles[c] * (model.coordinates[c].is_angle() ? 180 / M_PI : 1.0);
+  j["tracking_rms_first_two_cycles_deg_or_m"] = first;
   j["warnings"] = r.warnings;
   return j;
 }

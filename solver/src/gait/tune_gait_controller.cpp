@@ -69,21 +69,35 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     if (model.coordinates[c].is_angle()) rotations.push_back(c);
   std::atomic<int> done{0};
   std::mutex progress_mutex;
-  CpgModel working = cpg;  // the best so far: its controller and amplitude
-  working.controller = cpg.controller.value_or(untuned_controller());
+  // A single knob's tuning starts from the CPG's schedule there (scheduled_at_speed).
+  const double knob = base.speed * (t.speeds.size() == 1 ? t.speeds.front() : 1.0);
+  const CpgModel start = scheduled_at_speed(cpg, knob);
+  CpgModel working = start;  // the best so far: its controller and amplitude
+  working.controller = start.controller.value_or(untuned_controller());
   double horizon_s = t.horizon_s;
   // The lowest-cost candidate's walk in this round, kept as the candidates run: CMA-ES' best is one
   // of them, so its walk needs no second simulation.
   double best_cost = std::numeric_limits<double>::infinity(), best_walked = 0;
+  // The walks each candidate takes: each speed knob on level ground, then each ground step and push.
+  struct Walk {
+    double speed, step_m;
+    Eigen::Vector3d push_N_s;
+  };
+  std::vector<Walk> walks;
+  for (double speed : t.speeds) walks.push_back({speed, 0.0, Eigen::Vector3d::Zero()});
+  for (double step : t.ground_steps_m) walks.push_back({1.0, step, Eigen::Vector3d::Zero()});
+  for (const Eigen::Vector3d& push : t.pushes_N_s) walks.push_back({1.0, 0.0, push});
   // One candidate's simulations and score; walked receives the shortest time it walked. The start's
   // errors (the inputs') propagate; a candidate's score as falling at once.
   auto score = [&](const Candidate& k, double* walked, bool rethrow) {
     double cost = 0, time_walked = horizon_s;
-    for (double speed : t.speeds) {
+    for (const Walk& w : walks) {
       ReproducedGaitOptions o = with_controller(k.controller, base);
       o.duration_s = horizon_s;
       o.amplitude = base.amplitude * k.amplitude_factor;
-      o.speed = base.speed * speed;
+      o.speed = base.speed * w.speed;
+      if (w.step_m != 0) o.ground_step_m = w.step_m, o.ground_step_time_s = 0.5 * horizon_s;
+      if (w.push_N_s.norm() > 0) o.push_time_s = 0.5 * horizon_s, o.push_duration_s = 0.1, o.push_force_N = w.push_N_s / 0.1;
       double cost_here = t.fall_weight, walked_here = 0;
       try {
         const ReproducedGaitResult g = reproduce_gait(model, working, reference, contacts, o);
@@ -97,10 +111,12 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
         const double stride_error = g.stride_time_s > 0 ? std::abs(g.stride_time_s / cycle_s - 1.0) : 1.0;
         cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s + t.tracking_weight * tracking +
                     t.effort_weight * effort + t.stride_weight * stride_error;
+        if (t.worst_rotation_limit_deg > 0)
+          cost_here += t.fall_weight * std::max(0.0, worst * 180 / M_PI - t.worst_rotation_limit_deg) / t.worst_rotation_limit_deg;
       } catch (const std::exception&) {
         if (rethrow) throw;
       }
-      cost += cost_here / static_cast<double>(t.speeds.size());
+      cost += cost_here / static_cast<double>(walks.size());
       time_walked = std::min(time_walked, walked_here);
     }
     if (walked) *walked = time_walked;
@@ -140,13 +156,21 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   }
   // Over the whole horizon the start may still score better than the rounds' result.
   if (cost > result.summary.start_cost) {
-    working = cpg;
-    working.controller = decode(x0, cpg.controller.value_or(untuned_controller()), base).controller;  // as it was scored
+    working = start;
+    working.controller = decode(x0, start.controller.value_or(untuned_controller()), base).controller;  // as it was scored
     cost = result.summary.start_cost, walked = result.summary.start_walked_s;
   }
   result.summary.cost = cost;
   result.summary.walked_s = walked;
+  working.controller->speed = knob;
   result.cpg = working;
+  if (cpg.controller && t.speeds.size() == 1 && std::abs(knob - cpg.controller->speed) > 1e-9) {
+    // Tuned at another knob than the CPG's controller: a schedule entry at that knob; the rest stay.
+    result.cpg = cpg;
+    auto& schedule = result.cpg.speed_schedule;
+    std::erase_if(schedule, [&](const ScheduledController& e) { return std::abs(e.controller.speed - knob) < 1e-9; });
+    schedule.push_back({*working.controller, working.amplitude});
+  }
   result.summary.evaluations = done.load();
   result.summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

@@ -38,8 +38,15 @@ struct CpgController {
   // Where in the trial (s) those walks began; < 0: unknown. Without it a replay shorter or longer than
   // the tuning's horizon could begin elsewhere (a walk that would run past the trial begins earlier).
   double begin_time_s = -1;
+  double speed = 1.0;  // the speed knob (ReproducedGaitOptions::speed) it was tuned at
 
   nlohmann::json to_json() const;  // the CPG JSON's "controller" (CpgModel::from_json reads it)
+};
+
+// A controller tuned at another speed knob (controller.speed), with the CPG amplitude it was tuned with.
+struct ScheduledController {
+  CpgController controller;
+  double amplitude = 1.0;
 };
 
 struct CpgModel {
@@ -56,7 +63,11 @@ struct CpgModel {
   // Feedback: neuron input u = feedback_gains * signals (joint angles in rad, foot contact 0/1).
   std::vector<std::string> feedback_signals;
   Eigen::MatrixXd feedback_gains;       // neurons x signals
-  std::optional<CpgController> controller;  // absent until tuned
+  std::optional<CpgController> controller;  // absent until tuned; tuned with `amplitude`
+  // Controllers tuned at other speed knobs, by knob: a gait at knob k walks with the tuned knobs'
+  // nearest two interpolated (scheduled_at_speed), as one controller did not walk subject01 at both
+  // 0.8 and 1.2. Empty: `controller` at every knob.
+  std::vector<ScheduledController> speed_schedule;
 
   nlohmann::json to_json() const;
   // Throws InputError naming the JSON field.
@@ -93,6 +104,12 @@ struct CpgFitResult {
   Eigen::MatrixXd fitted;      // the same, from the fitted network
   CpgFitSummary summary;
 };
+
+// The CPG as it walks at speed knob `knob`: its controller and amplitude interpolated between those
+// tuned at the nearest knobs below and above (its controller's and its speed_schedule's; reflex gains
+// and amplitude geometrically, balance gains linearly; held beyond the ends). The start and
+// beginning stay the controller's. Unchanged without a schedule or a controller.
+CpgModel scheduled_at_speed(const CpgModel& cpg, double knob);
 
 // Times (s) where a force column rises through threshold_N: heel strikes from a force plate's
 // vertical force.

@@ -88,10 +88,12 @@ struct ReproducedGaitOptions {
   // starting place at ground_step_time_s (s) - carried there by the belt on a treadmill, walked to at
   // the trial's mean speed overground. The trial is taken to walk along ground x.
   double ground_step_m = 0, ground_step_time_s = 5;
-  // Walk -> stand: from stop_time_s (s; < 0: never) over stop_over_s (s; <= 0: one CPG cycle) the
-  // CPG's excitations fade out, the reflexes' targets turn from the trial's cycle to its mean pose
-  // (both feet side by side) and a treadmill's belt slows to a halt.
-  double stop_time_s = -1, stop_over_s = 0;
+  // Walk -> stand: from stop_time_s (s; < 0: never) the walk goes on until the cycle's phase (the
+  // CPG's; 0 at its foot's heel strike) reaches stop_phase, then freezes there: the CPG stops, its
+  // excitations hold, the reflexes hold the reference's pose at that phase at rest, and a treadmill's
+  // belt slows to a halt over stop_over_s (s; <= 0: 0.3). Frozen late in its foot's swing (default
+  // 0.95) the foot lands ahead and the model stands in a stride (the stop's test gives what was tried).
+  double stop_time_s = -1, stop_over_s = 0, stop_phase = 0.95;
 };
 
 struct ReproducedGaitResult {
@@ -106,6 +108,7 @@ struct ReproducedGaitResult {
   Eigen::MatrixXd contact_force_N;             // samples x 3 per sphere (ground frame)
   // Metrics.
   Eigen::VectorXd tracking_rms;                // per coordinate (rad, m)
+  Eigen::VectorXd tracking_rms_first_two_cycles;  // the same over the first two CPG cycles (cycle / speed)
   double worst_rotation_rms_rad = 0;
   std::string worst_rotation;
   std::vector<double> heel_strikes_r_s, heel_strikes_l_s;
@@ -114,9 +117,11 @@ struct ReproducedGaitResult {
   double mean_residual_moment_Nm = 0;
   double fell_at_s = -1;                        // < 0: did not fall
   double distance_m = 0;                        // pelvis horizontal travel
-  // Walk -> stand (stop_time_s): when the pelvis came to rest (horizontal speed over the ground
-  // below 0.1 m/s from then on; < 0: it did not), and how long it then stood with the centre of mass
-  // over the support polygon of the loaded contact spheres.
+  // Walk -> stand (stop_time_s): when the walk froze, when the pelvis came to rest (horizontal speed
+  // over the ground below 0.1 m/s from then on; < 0: it did not), and how long it then stood with the
+  // centre of mass over the support polygon of the loaded contact spheres (a planar model's: between
+  // them along x).
+  double frozen_at_s = -1;
   double stopped_at_s = -1, stood_s = 0;
   double solve_seconds = 0;
   long integrator_steps = 0;

@@ -1,13 +1,18 @@
 #pragma once
 // Tuning the reproduced gait's controller to walk without residual actuators: CMA-ES (cma_es.h) over
-// the joint reflex's gains, the CPG's amplitude and the balance feedback's gains, each candidate one simulation of the gait
-// (reproduce_gait, no residuals, reflex targets from the trial's cycle at the CPG's phase), scored by
+// the joint reflex's gains, the CPG's amplitude and the balance feedback's gains, each candidate a
+// few simulations of the gait (reproduce_gait, no residuals, reflex targets from the trial's cycle at
+// the CPG's phase: one per speed knob and ground step), each scored by
 //   (horizon - time walked) / horizon * fall_weight + tracking_weight * (mean + worst rotation RMS, rad)
-//   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|,
-// the falls first, then the deviation from the trial's cycle, then effort. The simulations run in
-// parallel; the starting controller (the CPG's, else the defaults) is evaluated first, so the result
-// is never worse than it. The result goes into the CPG (CpgModel::controller, its amplitude), whose
-// JSON then replays it.
+//   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|
+//   (+ fall_weight * the worst rotation's excess over a bound, relative to it, when one is set)
+// and the candidate by their mean: the falls first, then the deviation from the trial's cycle, then
+// effort. The simulations run in parallel; the starting controller (the CPG's, else the defaults) is
+// evaluated first, so the result is never worse than it. The result goes into the CPG
+// (CpgModel::controller, its amplitude), whose JSON then replays it. Tuned at a single speed knob
+// other than the CPG's controller's, it starts from the CPG's schedule at that knob and is stored as
+// the schedule's entry there (CpgModel::speed_schedule), the controller left as it was.
+#include <Eigen/Core>
 #include <string>
 #include <vector>
 
@@ -26,9 +31,19 @@ struct GaitTuningOptions {
   // cost per unit of relative stride-time error against the CPG's cycle / speed (default 1): the
   // balance feedback's steps entrain the CPG, and untaxed they shortened subject01's stride by 11 %.
   double stride_weight = 1.0;
+  // A bound on the worst rotation's tracking RMS (deg; 0: none, the default): beyond it a walk costs
+  // fall_weight per bound's worth of excess, as much as falling at once. Tuned over ground steps
+  // without it, subject01's hip_rotation_l drifted to 6.1 deg (measured).
+  double worst_rotation_limit_deg = 0;
   // Speed knobs (times the gait options') each candidate walks at: its cost the mean of theirs, its
   // time walked the shortest (default: 1 alone).
   std::vector<double> speeds = {1.0};
+  // Ground steps (m; negative: down) each candidate also walks over at the options' speed, the edge
+  // under the pelvis at half the horizon: their walks count as the speeds' do (default: none).
+  std::vector<double> ground_steps_m;
+  // Pushes (impulses at the pelvis, N s, ground frame, over 0.1 s at half the horizon) each candidate
+  // also walks through, counted as the ground steps are (default: none).
+  std::vector<Eigen::Vector3d> pushes_N_s;
   // CMA-ES runs this many times, each from the last one's best with a fresh step size, their horizons
   // rising evenly to horizon_s and the evaluations shared (default 1): short walks first, which are
   // cheap. On subject01 from the untuned start, 3 rounds to 15 s walked 11.4 s after 1,200
