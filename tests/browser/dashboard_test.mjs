@@ -267,6 +267,12 @@ let trialId;
         residuals: window.__cpgait.plots.gaitResiduals && window.__cpgait.plots.gaitResiduals.series.length }));
       assert.equal(gait.angles, 1 + 2 * 3);
       assert.equal(gait.residuals, 1 + 6);
+      // The gait-cycle card: one walk (no speed knobs); without a simulated stride it says so, no empty plot.
+      assert.equal(await page.locator('#gait-runs tr[data-knob]').count(), 1);
+      const cycles = await (await page.request.get(`${base}/api/v1/trials/${trialId}/cycles`)).json();
+      const strides = cycles.panels.find((x) => x.name === 'gait').series.length;
+      assert.equal(await page.locator('#gait-cycle-quantity').count(), strides ? 1 : 0);
+      if (!strides) assert.match(await page.locator('.card:has(#gait-runs)').textContent(), /No simulated stride to plot/);
     }
   });
 
