@@ -178,7 +178,7 @@ char column_side(const std::string& column) {
 // Each column's strides between one side's heel strikes (samples per stride, 0-100 % inclusive), their
 // mean and SD; the side from the column's name (right for neither). Activations keep the model's muscles.
 json cycle_series(const Model& model, const std::set<std::string>& muscles, const Storage& s, const std::map<char, std::vector<double>>& side_strikes,
-                  const std::string& panel, int kSamples) {
+                  const std::string& panel, int samples) {
   std::vector<double> time(s.time().data(), s.time().data() + s.num_rows());
   json series = json::array();
   for (int c = 1; c < s.num_columns(); ++c) {
@@ -187,12 +187,12 @@ json cycle_series(const Model& model, const std::set<std::string>& muscles, cons
     const char side = column_side(name) ? column_side(name) : 'r';
     const auto found = side_strikes.find(side);
     if (found == side_strikes.end()) continue;
-    const auto curves = cycle_curves(time, s.data.col(c), found->second, kSamples, true);
+    const auto curves = cycle_curves(time, s.data.col(c), found->second, samples, true);
     if (curves.empty()) continue;
     json strides = json::array();
-    Eigen::VectorXd mean = Eigen::VectorXd::Zero(kSamples), sq = Eigen::VectorXd::Zero(kSamples);
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(samples), sq = Eigen::VectorXd::Zero(samples);
     for (const auto& curve : curves) {
-      strides.push_back(std::vector<double>(curve.data(), curve.data() + kSamples));
+      strides.push_back(std::vector<double>(curve.data(), curve.data() + samples));
       mean += curve.col(0);
     }
     mean /= static_cast<double>(curves.size());
@@ -203,8 +203,8 @@ json cycle_series(const Model& model, const std::set<std::string>& muscles, cons
     const bool linear = ci >= 0 && !model.coordinates[static_cast<std::size_t>(ci)].is_angle();
     const char* unit = activations ? "" : moments ? (linear ? "N" : "N·m") : (linear ? "m" : "deg");
     series.push_back({{"name", name}, {"side", side == 'l' ? "l" : "r"}, {"unit", unit}, {"strides", strides},
-                      {"mean", std::vector<double>(mean.data(), mean.data() + kSamples)},
-                      {"sd", std::vector<double>(sd.data(), sd.data() + kSamples)}});
+                      {"mean", std::vector<double>(mean.data(), mean.data() + samples)},
+                      {"sd", std::vector<double>(sd.data(), sd.data() + samples)}});
   }
   return series;
 }
@@ -212,7 +212,7 @@ json cycle_series(const Model& model, const std::set<std::string>& muscles, cons
 // The reproduced gait's coordinates between its own heel strikes (simulated time), and those of its
 // walks at other speed knobs: panels "gait" and "gait_speed_<knob>", when the gait stage ran.
 void append_gait_cycle_panels(json& panels, const Model& model, const std::set<std::string>& muscles, const std::string& results_dir,
-                              const std::string& trial_name, int kSamples) {
+                              const std::string& trial_name, int samples) {
   const std::string base = results_dir + "/" + trial_name;
   if (!std::filesystem::exists(base + "_gait.json") || !std::filesystem::exists(base + "_gait.mot")) return;
   const json summary = json::parse(text::read_file(base + "_gait.json"));
@@ -223,13 +223,13 @@ void append_gait_cycle_panels(json& panels, const Model& model, const std::set<s
     return out;
   };
   panels.push_back({{"name", "gait"}, {"file", trial_name + "_gait.mot"}, {"speed_knob", 1.0},
-                    {"series", cycle_series(model, muscles, read_storage(base + "_gait.mot"), gait_strikes(summary), "gait", kSamples)}});
+                    {"series", cycle_series(model, muscles, read_storage(base + "_gait.mot"), gait_strikes(summary), "gait", samples)}});
   for (const json& run : summary.value("speed_knobs", json::array())) {
     const std::string file = results_dir + "/" + run.at("file").get<std::string>();
     if (!std::filesystem::exists(file)) continue;
     panels.push_back({{"name", "gait_speed_" + run.at("speed_knob").dump()},
                       {"file", run.at("file")}, {"speed_knob", run.at("speed_knob")},
-                      {"series", cycle_series(model, muscles, read_storage(file), gait_strikes(run), "gait", kSamples)}});
+                      {"series", cycle_series(model, muscles, read_storage(file), gait_strikes(run), "gait", samples)}});
   }
 }
 

@@ -671,7 +671,7 @@ function gaitCycleCard(card, summary, cycles) {
   const panel = (name) => cycles && cycles.panels.find((p) => p.name === name);
   const gaitPanel = panel('gait');
   const sim = gaitPanel && gaitPanel.series.length ? gaitPanel : null;  // null: no simulated stride
-  const runs = [Object.assign({ speed_knob: 1, panel: gaitPanel }, summary)].concat((summary.speed_knobs || []).map((r) => Object.assign({}, r, { panel: panel(`gait_speed_${r.speed_knob}`) })));
+  const runs = [Object.assign({ speed_knob: 1, panel: gaitPanel }, summary)].concat((summary.speed_knobs || []).map((r) => Object.assign({}, r, { panel: cycles && cycles.panels.find((p) => p.name.startsWith('gait_speed_') && p.speed_knob === r.speed_knob) })));
   const strides = (r, side) => Math.max(0, ((r.heel_strikes_s || {})[side] || []).length - 1);
   const table = h('table', { id: 'gait-runs' },
     h('tr', {}, ['Speed knob', 'Walked', 'Strides R / L', 'Stride (s)', 'Cycle / knob (s)', 'Stride length (m)', 'Speed (m/s)'].map((x) => h('th', {}, x))),

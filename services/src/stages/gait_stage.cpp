@@ -48,7 +48,8 @@ struct GaitStageOptions {
                          NumberRange{0.2, 3.0, true}, 8)
             .integer("schedule_evaluations", &GaitStageOptions::schedule_evaluations, 0, 5000,
                      "after tuning, tune the controller again at each of speed_knobs with this many simulations, each from the "
-                     "controller at knob 1: a gain schedule over the knob, stored in _cpg_tuned.json (0: one controller at every knob)");
+                     "schedule at that knob so far: a gain schedule over the knob, stored in _cpg_tuned.json (0: one controller at every "
+                     "knob)");
     return f;
   }
 };
@@ -151,7 +152,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
     CpgModel driving = cpg->model;
     const nlohmann::json tuning = o.tune_evaluations > 0 ? tune_for_stage(trial, model, driving, reference, feet, go, o) : nlohmann::json();
-    if (driving.controller) go = with_controller(*scheduled_at_speed(driving, go.speed).controller, go);  // as it was tuned
+    driving = scheduled_at_speed(driving, go.speed);  // a tuned CPG walks as it was tuned at this knob
+    if (driving.controller) go = with_controller(*driving.controller, go);
     // Walking on its own, as long as the trial and at least 10 s (issue 22); held by residuals, which
     // need the trial's pelvis, what the trial has.
     if (!o.duration_s && !go.pelvis_residuals) go.duration_s = std::max(10.0, available);

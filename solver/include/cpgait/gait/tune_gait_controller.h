@@ -2,7 +2,7 @@
 // Tuning the reproduced gait's controller to walk without residual actuators: CMA-ES (cma_es.h) over
 // the joint reflex's gains, the CPG's amplitude and the balance feedback's gains, each candidate a
 // few simulations of the gait (reproduce_gait, no residuals, reflex targets from the trial's cycle at
-// the CPG's phase: one per speed knob and ground step), each scored by
+// the CPG's phase: one per speed knob, ground step and push), each scored by
 //   (horizon - time walked) / horizon * fall_weight + tracking_weight * (mean + worst rotation RMS, rad)
 //   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|
 //   (+ fall_weight * the worst rotation's excess over a bound, relative to it, when one is set)
