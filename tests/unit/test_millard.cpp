@@ -123,6 +123,20 @@ TEST(Millard2012, CurveValuesAreTheirBezierRootsToRounding) {
   }
 }
 
+// A NaN argument (a state gone bad) gives NaN from every lookup, not an out-of-range table read:
+// CMC once crashed here on an uninitialised fibre length.
+TEST(Millard2012, CurvesGiveNanForNan) {
+  const millard2012::Curves c = millard2012::make_curves(millard2012::Parameters{});
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const SmoothSegmentedFunction* f :
+       {&c.active_force_length, &c.force_velocity, &c.force_velocity_inverse, &c.fiber_force_length, &c.tendon_force_length}) {
+    double y = 0, dydx = 0;
+    f->value_and_derivative(nan, y, dydx);
+    EXPECT_TRUE(std::isnan(f->value(nan)) && std::isnan(f->derivative(nan)) && std::isnan(y) && std::isnan(dydx))
+        << "curve from " << f->x_begin() << " to " << f->x_end();
+  }
+}
+
 // An undamped elastic tendon keeps OpenSim's singularity guards: the active-force-length curve never
 // drops below 0.1 and the force-velocity curve keeps a slope of 0.1 at its ends.
 TEST(Millard2012, UndampedElasticTendonKeepsTheCurvesAwayFromZero) {

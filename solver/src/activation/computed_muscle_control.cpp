@@ -165,7 +165,9 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   auto& fd = ws.fd;
 
   // State.
-  Eigen::VectorXd x(sys.state_size()), xdot(sys.state_size()), x_pred(sys.state_size());
+  // Zeroed: the first derivative evaluation reads the fibre lengths before they are set (its muscle
+  // forces are not used, but an uninitialised NaN there crashed a curve lookup).
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), xdot(sys.state_size()), x_pred(sys.state_size());
   Eigen::VectorXd qd_f(nq), ud_f(nq), ad_f(nq), qd_i(nq), ud_i(nq), ad_i(nq);
   trajectories_at(traj, t_begin, qd_i, ud_i, ad_i);
   x.head(nq) = qd_i;
@@ -179,6 +181,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   // Rigid tendons: fibre length and velocity from the path at the predicted state, where the forces
   // are solved. Compliant tendons: the path length now and at the window's end.
   Eigen::VectorXd path_length(nm), path_speed(nm), path_start(nm), path_end(nm);
+  std::vector<muscles::PredictorStart> predictor_start(nm);
   bool use_fiber_state = false;  // false: rigid-tendon fibres from the path (also the first solve)
   // The activation whose active force (plus passive) is sol[m] * f_opt[m], within [a_min, a_max].
   auto activation_for_solution = [&](int m, double a_min, double a_max) {
@@ -216,8 +219,8 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
                             1e-3 * mu.max_isometric_force_N);
         f_pass[m] = 0;
         const double a0 = x[sys.activation_index(m)], lm0 = x[sys.fiber_length_index(m)];
-        const double f_lo = muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_min[m], T).force_N;
-        const double f_hi = muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_max[m], T).force_N;
+        const double f_lo = muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_min[m], T, &predictor_start[m]).force_N;
+        const double f_hi = muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_max[m], T, &predictor_start[m]).force_N;
         lo[m] = std::min(f_lo, f_hi) / f_opt[m];
         hi[m] = std::max(f_lo, f_hi) / f_opt[m];
         A.col(m) = ws.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
@@ -391,6 +394,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       Eigen::VectorXd controls_now = control_prev;
       muscle_driven_derivatives(sys, t, x, excitation, controls_now, ws, xdot);
       path_start = ws.geometry.length_m;
+      for (int m = 0; m < nm; ++m) predictor_start[m] = {ws.fiber_velocity_m_s[m]};  // the predictions' common start
       use_fiber_state = true;
     }
     const bool feasible = solve_forces(tf, x_pred);
@@ -403,7 +407,9 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         const double a0 = x[sys.activation_index(m)], lm0 = x[sys.fiber_length_index(m)];
         const double target = sol[m] * f_opt[m];
         double u_lo = u_min[m], u_hi = u_max[m];
-        auto force = [&](double u) { return muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u, T).force_N; };
+        auto force = [&](double u) {
+          return muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u, T, &predictor_start[m]).force_N;
+        };
         if (target <= lo[m] * f_opt[m] + 1e-9) {
           excitation[m] = u_lo;
         } else if (target >= hi[m] * f_opt[m] - 1e-9) {

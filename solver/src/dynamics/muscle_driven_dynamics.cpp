@@ -131,6 +131,17 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   xdot.segment(nq, nq) = ws.G * a_free + ws.c;
 }
 
+namespace {
+// out += scale R^T diag(w) R, over each muscle's crossed coordinates.
+void add_moment_arm_product(const MuscleDrivenJacobian& jac, const Eigen::VectorXd& w, double scale, Eigen::MatrixXd& out) {
+  for (int m = 0; m < static_cast<int>(jac.crossed.size()); ++m) {
+    if (w[m] == 0) continue;
+    for (int i : jac.crossed[m])
+      for (int j : jac.crossed[m]) out(i, j) += scale * w[m] * jac.moment_arm(m, i) * jac.moment_arm(m, j);
+  }
+}
+}  // namespace
+
 void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
                            const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
                            MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot) {
@@ -150,6 +161,8 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   jac.dF_dl.setZero(nm);
   jac.dF_da.setZero(nm);
   jac.dF_dV.setZero(nm);
+  jac.dF_dL.setZero(nm);
+  jac.dl_dL.setZero(nm);
   for (int m = 0; m < nm; ++m) {
     const Muscle& mu = model.muscles[m];
     const double a = x[sys.activation_index(m)];
@@ -164,9 +177,12 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const auto f0 = muscles::compliant_tendon_fiber(mu, a, L, lm, v);
       const auto fl = muscles::compliant_tendon_fiber(mu, a, L, lm + dl, v);
       const auto fa = muscles::compliant_tendon_fiber(mu, a + da, L, lm, v);
+      const auto fL = muscles::compliant_tendon_fiber(mu, a, L + dl, lm, v);
       jac.dl_dl[m] = (fl.fiber_velocity_m_s - f0.fiber_velocity_m_s) / dl;
       jac.dl_da[m] = (fa.fiber_velocity_m_s - f0.fiber_velocity_m_s) / da;
       jac.dF_dl[m] = (fl.force_N - f0.force_N) / dl;
+      jac.dF_dL[m] = (fL.force_N - f0.force_N) / dl;
+      jac.dl_dL[m] = (fL.fiber_velocity_m_s - f0.fiber_velocity_m_s) / dl;
     } else {
       const double F = ws.active_force_N[m];
       const double dV = 1e-6 * mu.optimal_fiber_length_m * mu.max_contraction_velocity;
@@ -175,19 +191,17 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
     }
   }
   jac.factored_gamma_h = -1;
+  // R^T diag(.) R products go muscle by muscle over the few coordinates each one crosses (a dense
+  // product was 6 % of a reproduced gait's time).
+  jac.crossed.resize(nm);
+  for (int m = 0; m < nm; ++m) {
+    jac.crossed[m].clear();
+    for (int c = 0; c < nq; ++c)
+      if (jac.moment_arm(m, c) != 0) jac.crossed[m].push_back(c);
+  }
   if (!sys.compliant_tendons && nm > 0) {
-    // R^T diag(dF/dV) R muscle by muscle over the few coordinates each one crosses (a dense product
-    // was 6 % of a reproduced gait's time).
     jac.muscle_damping.setZero(nq, nq);
-    std::vector<int> crossed;
-    for (int m = 0; m < nm; ++m) {
-      if (jac.dF_dV[m] == 0) continue;
-      crossed.clear();
-      for (int c = 0; c < nq; ++c)
-        if (jac.moment_arm(m, c) != 0) crossed.push_back(c);
-      for (int i : crossed)
-        for (int j : crossed) jac.muscle_damping(i, j) += jac.dF_dV[m] * jac.moment_arm(m, i) * jac.moment_arm(m, j);
-    }
+    add_moment_arm_product(jac, jac.dF_dV, 1.0, jac.muscle_damping);
   }
   // Contact: each sphere's force (as the evaluation above found it) against its contact point's
   // velocity and its height, by differences, mapped through the contact point's velocity Jacobian.
@@ -224,30 +238,59 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
   const int nq = sys.num_coordinates(), nm = sys.num_muscles();
   k.resize(rhs.size());
   jac.g.setZero(nm);
+  // Compliant tendons: a joint motion dq stretches each path by dL = -R dq, which moves the tendon's
+  // force directly and through the fibre's response within the step. Eliminating the fibre gives the
+  // effective stiffness e = dF/dL + dF/dl gh (dl'/dL) / (1 - gh dl'/dl): with it in W the stiff
+  // tendons on light segments (toes, ankles) no longer limit the step. Where e < 0 the coupling is
+  // left out (W stays positive definite; a W-method keeps its order with any approximation).
+  const bool tendon_stiffness = sys.compliant_tendons && nm > 0;
+  if (tendon_stiffness && gh != jac.factored_gamma_h) {
+    jac.tendon_stiffness.resize(nm);
+    for (int m = 0; m < nm; ++m) {
+      const double e = jac.dF_dL[m] + jac.dF_dl[m] * gh * jac.dl_dL[m] / (1.0 - gh * jac.dl_dl[m]);
+      jac.tendon_stiffness[m] = e > 0 ? e : 0.0;
+    }
+  }
   for (int m = 0; m < nm; ++m) {
     const int ia = sys.activation_index(m);
     k[ia] = rhs[ia] / (1.0 - gh * jac.da_da[m]);
     if (sys.compliant_tendons) {
       const int il = sys.fiber_length_index(m);
-      k[il] = (rhs[il] + gh * jac.dl_da[m] * k[ia]) / (1.0 - gh * jac.dl_dl[m]);
+      k[il] = (rhs[il] + gh * jac.dl_da[m] * k[ia]) / (1.0 - gh * jac.dl_dl[m]);  // the part without dL
       jac.g[m] = jac.dF_dl[m] * k[il];
     } else {
       jac.g[m] = jac.dF_da[m] * k[ia];
     }
   }
-  // (M + gh (R^T diag(dF/dV) R + D) + gh^2 K) k_u = M rhs_u + gh R^T g - gh K rhs_q, with k_q = rhs_q + gh k_u
+  // (M + gh (R^T diag(dF/dV) R + D) + gh^2 (K + R^T diag(e) R)) k_u
+  //   = M rhs_u + gh R^T g - gh (K + R^T diag(e) R) rhs_q,  with k_q = rhs_q + gh k_u
   if (gh != jac.factored_gamma_h) {
     jac.W = jac.M;
     if (!sys.compliant_tendons && nm > 0) jac.W += gh * jac.muscle_damping;
     jac.W += gh * jac.damping + gh * gh * jac.stiffness;
+    if (tendon_stiffness) add_moment_arm_product(jac, jac.tendon_stiffness, gh * gh, jac.W);
     jac.llt.compute(jac.W);
     jac.factored_gamma_h = gh;
   }
-  Eigen::VectorXd b = jac.M * rhs.segment(nq, nq);
+  Eigen::VectorXd& b = jac.b;
+  b.noalias() = jac.M * rhs.segment(nq, nq);
   if (nm > 0) b.noalias() += gh * jac.moment_arm.transpose() * jac.g;
   b.noalias() -= gh * jac.stiffness * rhs.head(nq);
+  Eigen::VectorXd& stretch = jac.stretch;  // R dq = -dL per muscle
+  if (tendon_stiffness) {
+    stretch.noalias() = jac.moment_arm * rhs.head(nq);  // the stretch the position part alone makes
+    stretch.array() *= jac.tendon_stiffness.array();
+    b.noalias() -= gh * jac.moment_arm.transpose() * stretch;
+  }
   k.segment(nq, nq) = jac.llt.solve(b);
   k.head(nq) = rhs.head(nq) + gh * k.segment(nq, nq);
+  if (tendon_stiffness) {
+    // The fibres' response to the joints' motion over the step, where the coupling was kept.
+    stretch.noalias() = jac.moment_arm * k.head(nq);
+    for (int m = 0; m < nm; ++m)
+      if (jac.tendon_stiffness[m] > 0)
+        k[sys.fiber_length_index(m)] -= gh * jac.dl_dL[m] * stretch[m] / (1.0 - gh * jac.dl_dl[m]);
+  }
 }
 
 }  // namespace cpgait

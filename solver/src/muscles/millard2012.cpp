@@ -140,6 +140,8 @@ Curves make_curves(const Parameters& p) {
   Curves c;
   c.parameters = p;
   c.use_fiber_damping = p.fiber_damping >= kMinNonzeroDamping;
+  c.sin_max_pennation = std::sin(p.maximum_pennation_angle_rad);
+  c.cos_max_pennation = std::cos(p.maximum_pennation_angle_rad);
   if (!c.use_fiber_damping) c.parameters.fiber_damping = 0.0;
   ActiveForceLengthParameters fal = p.active_force_length;
   ForceVelocityParameters fv = p.force_velocity;
@@ -182,20 +184,28 @@ namespace {
 
 // OpenSim's MuscleFixedWidthPennationModel with the muscle's maximum pennation angle.
 struct FixedWidthPennation {
-  double height, max_sin, max_angle, min_fiber_length, min_fiber_length_along_tendon;
+  double height, max_sin, max_cos, max_angle, min_fiber_length, min_fiber_length_along_tendon;
   bool pennated;
-  FixedWidthPennation(const Muscle& m, double max_angle_rad)
+  // The maximum angle's sine and cosine come with the curves: this is built in every evaluation.
+  FixedWidthPennation(const Muscle& m, const Curves& c)
       : height(m.optimal_fiber_length_m * m.sin_pennation_at_optimal),
-        max_sin(std::sin(max_angle_rad)),
-        max_angle(max_angle_rad),
-        min_fiber_length(max_angle_rad > 1e-14 ? height / std::sin(max_angle_rad) : 0.01 * m.optimal_fiber_length_m),
-        min_fiber_length_along_tendon(min_fiber_length * std::cos(max_angle_rad)),
+        max_sin(c.sin_max_pennation),
+        max_cos(c.cos_max_pennation),
+        max_angle(c.parameters.maximum_pennation_angle_rad),
+        min_fiber_length(max_angle > 1e-14 ? height / max_sin : 0.01 * m.optimal_fiber_length_m),
+        min_fiber_length_along_tendon(min_fiber_length * max_cos),
         pennated(m.pennation_angle_at_optimal_rad > std::numeric_limits<double>::epsilon()) {}
   double angle(double fiber_length) const {
     if (!pennated) return 0.0;
     if (fiber_length <= min_fiber_length) return max_angle;
     const double s = height / fiber_length;
     return s < max_sin ? std::asin(s) : max_angle;
+  }
+  double cos_angle(double fiber_length) const {  // cos(angle(fiber_length)), without a cos where it is known
+    if (!pennated) return 1.0;
+    if (fiber_length <= min_fiber_length) return max_cos;
+    const double s = height / fiber_length;
+    return s < max_sin ? std::cos(std::asin(s)) : max_cos;
   }
   double fiber_length(double path_length, double tendon_length) const {
     const double along = path_length - tendon_length;
@@ -231,7 +241,11 @@ double damped_norm_fiber_velocity(const Curves& c, double a, double fal, double 
     if (std::abs(err) <= 1e-10) break;  // OpenSim's tolerance, 1e-10 max isometric force
     (err > 0 ? hi : lo) = v;
     double next = v - err / ((a * fal * dfv + beta) * cos_pen);
-    if (std::isfinite(lo) && std::isfinite(hi) && !(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::isfinite(lo) && std::isfinite(hi) && !(next > lo && next < hi)) {
+      next = 0.5 * (lo + hi);
+    } else if (std::abs(next - v) <= 1e-6) {
+      return next;  // Newton converges quadratically: the step after would be ~1e-12 (saves an evaluation)
+    }
     if (next == v) break;
     v = next;
   }
@@ -242,21 +256,21 @@ double damped_norm_fiber_velocity(const Curves& c, double a, double fal, double 
 
 double min_fiber_length(const Muscle& m) {
   const Curves& c = *m.millard;
-  return shortest_fiber(m, c, FixedWidthPennation(m, c.parameters.maximum_pennation_angle_rad));
+  return shortest_fiber(m, c, FixedWidthPennation(m, c));
 }
 
 double rigid_tendon_fiber_length(const Muscle& m, double L) {
   const Curves& c = *m.millard;
-  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const FixedWidthPennation pen(m, c);
   return std::max(pen.fiber_length(L, m.tendon_slack_length_m), shortest_fiber(m, c, pen));
 }
 
 RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double L, double V) {
   const Curves& c = *m.millard;
-  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const FixedWidthPennation pen(m, c);
   const double lmin = shortest_fiber(m, c, pen);
   const double lce = rigid_tendon_fiber_length(m, L);
-  const double cos_pen = std::cos(pen.angle(lce));
+  const double cos_pen = pen.cos_angle(lce);
   double vN = 0.0, fv = 1.0;
   // A slack tendon buckles: the fibre does not move with the path.
   if (L - lce * cos_pen >= m.tendon_slack_length_m - 1e-14) {
@@ -274,10 +288,10 @@ RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double
 
 CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm, double velocity_guess_m_s) {
   const Curves& c = *m.millard;
-  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const FixedWidthPennation pen(m, c);
   const double lmin = shortest_fiber(m, c, pen);
   lm = std::max(lm, lmin);
-  const double cos_pen = std::cos(pen.angle(lm));
+  const double cos_pen = pen.cos_angle(lm);
   const double fse = c.tendon_force_length.value((L - lm * cos_pen) / m.tendon_slack_length_m);
   const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
   const double lN = lm / m.optimal_fiber_length_m;
@@ -291,10 +305,10 @@ CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, 
 
 double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double L, double V) {
   const Curves& c = *m.millard;
-  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const FixedWidthPennation pen(m, c);
   const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
   auto residual = [&](double lm) {  // tendon minus fibre, normalised by max isometric force
-    const double cos_pen = std::cos(pen.angle(lm));
+    const double cos_pen = pen.cos_angle(lm);
     const double lN = lm / m.optimal_fiber_length_m;
     const double vN = V * cos_pen / (m.optimal_fiber_length_m * m.max_contraction_velocity);
     const double fibre = a * c.active_force_length.value(lN) * c.force_velocity.value(vN) + c.fiber_force_length.value(lN) +
@@ -308,9 +322,9 @@ double compliant_equilibrium_fiber_length(const Muscle& m, double activation, do
 
 double inextensible_tendon_active_force(const Muscle& m, double activation, double L, double V) {
   const Curves& c = *m.millard;
-  const FixedWidthPennation pen(m, c.parameters.maximum_pennation_angle_rad);
+  const FixedWidthPennation pen(m, c);
   const double lce = pen.fiber_length(L, m.tendon_slack_length_m);
-  const double dlce = V * std::cos(pen.angle(lce));
+  const double dlce = V * pen.cos_angle(lce);
   if (lce <= shortest_fiber(m, c, pen)) return 0.0;
   const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0);
   const double lceN = lce / m.optimal_fiber_length_m;

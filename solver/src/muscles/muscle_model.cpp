@@ -57,8 +57,9 @@ double isometric_fiber_length(const Muscle& m, double a, double L) {
   return m.schutte ? schutte1993::isometric_fiber_length(m, a, L) : compliant_equilibrium_fiber_length(m, a, L, 0.0);
 }
 
-CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm, double L0, double L1, double u, double T) {
-  const int n = std::max(1, static_cast<int>(std::ceil(T / 1e-3 - 1e-9)));
+CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm, double L0, double L1, double u, double T,
+                                            PredictorStart* start) {
+  const int n = std::max(1, static_cast<int>(std::ceil(T / 1.7e-3 - 1e-9)));
   const double h = T / n;
   if (has_rigid_tendon(m)) {
     a = thelen_activation_after(m, a, u, T);
@@ -69,33 +70,44 @@ CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm
   // CMC's tracking depends on this: stopping at 1e-9 of the optimal length on g doubled subject01's
   // pelvis and lumbar errors (0.22 -> 0.45 deg pelvis_list); from 1e-11 down they no longer change.
   const double tol = 1e-11 * m.optimal_fiber_length_m;
-  // Backward Euler: g(l) = l - lm - h v(a, L, l) = 0. g rises monotonically (v falls as the fibre
-  // lengthens), so its slope is at least 1. Secant steps from an explicit-Euler start, the first
-  // slope carried over from the previous substep (a finite difference on the first): one velocity
+  // BDF2 (backward Euler on the first substep): g(l) = l - base - c h v(a, L, l) = 0, with base and
+  // c = 1 (Euler) or (4 lm - lm_prev) / 3 and 2/3. g rises monotonically (v falls as the fibre
+  // lengthens), so its slope is at least 1. Secant steps from an explicit start, the first slope
+  // carried over from the previous substep (a finite difference on the first): one velocity
   // evaluation per iterate instead of Newton's two, in about as many iterates.
-  double slope = 0;
-  CompliantTendonFiber at = compliant_tendon_fiber(m, a, L0, lm);  // the fibre at the current iterate
+  // -dv/dl, the fibre velocity's response to its length (>= 0); < 0: unknown.
+  double stiffness = start && start->velocity_slope_per_s <= 0 ? -start->velocity_slope_per_s : -1;
+  double lm_prev = lm, v_prev = 0;
+  CompliantTendonFiber at{};  // the fibre at the current iterate
+  if (start && std::isfinite(start->fiber_velocity_m_s)) at.fiber_velocity_m_s = start->fiber_velocity_m_s;
+  else at = compliant_tendon_fiber(m, a, L0, lm);
   for (int i = 1; i <= n; ++i) {
     a = thelen_activation_after(m, a, u, h);
     const double L = L0 + (L1 - L0) * i / n;
-    double l = std::max(lm + h * at.fiber_velocity_m_s, lm_min);
+    const double base = i == 1 ? lm : (4 * lm - lm_prev) / 3, ch = i == 1 ? h : 2 * h / 3;
+    // Start: the velocity extrapolated linearly from the last two substeps.
+    const double v_start = i == 1 ? at.fiber_velocity_m_s : 2 * at.fiber_velocity_m_s - v_prev;
+    v_prev = at.fiber_velocity_m_s;
+    double l = std::max(base + ch * v_start, lm_min);
     at = compliant_tendon_fiber(m, a, L, l, at.fiber_velocity_m_s);
-    double g = l - lm - h * at.fiber_velocity_m_s;
-    if (slope == 0) {
+    double g = l - base - ch * at.fiber_velocity_m_s;
+    if (stiffness < 0) {
       const double dl = 1e-7 * m.optimal_fiber_length_m;
-      slope = std::max(1.0, 1.0 - h * (compliant_tendon_fiber(m, a, L, l + dl, at.fiber_velocity_m_s).fiber_velocity_m_s - at.fiber_velocity_m_s) / dl);
+      stiffness = std::max(0.0, -(compliant_tendon_fiber(m, a, L, l + dl, at.fiber_velocity_m_s).fiber_velocity_m_s - at.fiber_velocity_m_s) / dl);
+      if (start) start->velocity_slope_per_s = -stiffness;
     }
     // |g| bounds the distance to the root (slope >= 1): the test is on g, not on the step, which a
     // secant through a kink of v (Thelen's force-velocity branches) can make small far from it.
     for (int k = 0; k < 40 && std::abs(g) >= tol; ++k) {
-      const double l_next = std::max(l - g / slope, lm_min);
+      const double l_next = std::max(l - g / (1 + ch * stiffness), lm_min);
       if (l_next == l) break;  // at the floor
       at = compliant_tendon_fiber(m, a, L, l_next, at.fiber_velocity_m_s);
-      const double g_next = l_next - lm - h * at.fiber_velocity_m_s;
-      slope = std::max(1.0, (g_next - g) / (l_next - l));
+      const double g_next = l_next - base - ch * at.fiber_velocity_m_s;
+      stiffness = std::max(0.0, ((g_next - g) / (l_next - l) - 1) / ch);
       l = l_next;
       g = g_next;
     }
+    lm_prev = lm;
     lm = l;
   }
   return {a, lm, at.force_N};

@@ -58,7 +58,7 @@ SmoothSegmentedFunction::SmoothSegmentedFunction(std::vector<QuinticBezier> segm
     : segments_(std::move(segments)), x0_(x0), x1_(x1), y0_(y0), y1_(y1), dydx0_(dydx0), dydx1_(dydx1) {
   for (const auto& seg : segments_) {
     const double width = seg.x[5] - seg.x[0];
-    polynomials_.push_back({power_basis(seg.x), power_basis(seg.y), seg.x[0], width, width > 0 ? kTable / width : 0.0});
+    polynomials_.push_back({power_basis(seg.x), power_basis(seg.y), seg.x[0], seg.x[5], width, width > 0 ? kTable / width : 0.0});
     const std::array<double, 6>& px = polynomials_.back().x;
     std::array<Node, kTable + 1> t{};
     double u = 0;
@@ -84,16 +84,22 @@ SmoothSegmentedFunction::SmoothSegmentedFunction(std::vector<QuinticBezier> segm
   }
 }
 
-void SmoothSegmentedFunction::locate(double x, int& segment, double& u) const {
+// Inlined into every lookup (a CMC makes millions): the table start and one Newton step. The rare
+// start further out goes on in refine().
+inline void SmoothSegmentedFunction::locate(double x, int& segment, double& u) const {
   // As OpenSim's calcIndex: the first segment with x0 <= x < x5, the last one at its very end.
-  const int n = static_cast<int>(segments_.size());
+  const int n = static_cast<int>(polynomials_.size());
   segment = n - 1;
   for (int i = 0; i < n; ++i)
-    if (x >= segments_[i].x[0] && x < segments_[i].x[5]) {
+    if (x >= polynomials_[i].x_begin && x < polynomials_[i].x_end) {
       segment = i;
       break;
     }
   const Polynomials& p = polynomials_[segment];
+  if (std::isnan(x)) {  // NaN in, NaN out: the table index below would be undefined
+    u = x;
+    return;
+  }
   const double s = std::clamp((x - p.x_begin) * p.nodes_per_x, 0.0, double(kTable));
   const int k = std::min(static_cast<int>(s), kTable - 1);
   const Node& a = u_table_[segment][k];
@@ -102,14 +108,18 @@ void SmoothSegmentedFunction::locate(double x, int& segment, double& u) const {
   const double t = s - k, h = p.width / kTable, t2 = t * t, t3 = t2 * t;
   u = (2 * t3 - 3 * t2 + 1) * a.u + (t3 - 2 * t2 + t) * h * a.du_dx + (-2 * t3 + 3 * t2) * b.u + (t3 - t2) * h * b.du_dx;
   // From the interpolated start (|x(u) - x| ~1e-9) one Newton step lands within rounding of the root:
-  // the error squares. Otherwise Newton to OpenSim's 100 machine epsilons in x, with bisection where
-  // Newton would leave the bracket.
-  const double tol = 100 * std::numeric_limits<double>::epsilon();
+  // the error squares.
   const double f0 = horner(p.x, u) - x;
   if (std::abs(f0) <= 1e-7 * p.width) {
     u = std::clamp(u - f0 / horner_du(p.x, u), 0.0, 1.0);
     return;
   }
+  refine(x, p, u);
+}
+
+void SmoothSegmentedFunction::refine(double x, const Polynomials& p, double& u) {
+  // Newton to OpenSim's 100 machine epsilons in x, with bisection where Newton would leave the bracket.
+  const double tol = 100 * std::numeric_limits<double>::epsilon();
   double lo = 0, hi = 1;
   for (int it = 0; it < 60; ++it) {
     const double f = horner(p.x, u) - x;

@@ -74,23 +74,27 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const 
 
 // The Jacobian approximation integrate_ros2 uses: the stiff parts only. Per muscle, the activation
 // and fibre-length rates against their own states (diagonal), the muscle force against fibre length
-// (compliant) or against activation and path speed (rigid: the force-velocity curve damps the
-// joints, -R^T diag(dF/dV) R), dq/dt = u, and the damping and stiffness below (contact, and what a
-// caller adds). Measured GRF moving with the body is left explicit: the W-method stays second order
-// with any such approximation.
+// and path length (compliant: the tendon's stiffness couples the joints, R^T diag(e) R) or against
+// activation and path speed (rigid: the force-velocity curve damps the joints, -R^T diag(dF/dV) R),
+// dq/dt = u, and the damping and stiffness below (contact, and what a caller adds). Measured GRF
+// moving with the body is left explicit: the W-method stays second order with any such
+// approximation.
 struct MuscleDrivenJacobian {
   Eigen::MatrixXd M, moment_arm;  // at the step's start
   Eigen::VectorXd da_da, dl_dl, dl_da, dF_dl, dF_da, dF_dV;
+  Eigen::VectorXd dF_dL, dl_dL;     // compliant tendons: force and fibre velocity against path length
+  Eigen::VectorXd tendon_stiffness;  // compliant: effective dF/dL over a step of factored_gamma_h (>= 0)
+  std::vector<std::vector<int>> crossed;  // per muscle: the coordinates with a nonzero moment arm
   // Generalized damping and stiffness (nq x nq, symmetric, >= 0) of the forces outside the muscles.
   // Contact spheres give sum J^T C J (C: -dF/dv, symmetric part, negative eigenvalues dropped) and
   // sum k J_y^T J_y, the stiff terms of foot-ground contact (friction's slope near zero slip and the
   // Hunt-Crossley normal force); a caller adds its own generalized forces' (passive joints).
   Eigen::MatrixXd damping, stiffness;
   Eigen::MatrixXd muscle_damping;  // rigid tendons: R^T diag(dF/dV) R, formed once per prepare
-  Eigen::MatrixXd W;              // M + gamma h (R^T diag(dF/dV) R + D) + (gamma h)^2 K, factored in llt
+  Eigen::MatrixXd W;  // M + gamma h (R^T diag(dF/dV) R + D) + (gamma h)^2 (K + R^T diag(e) R), factored in llt
   Eigen::LLT<Eigen::MatrixXd> llt;
   double factored_gamma_h = -1;   // the gamma h that llt holds (a step's stages share it); < 0: none
-  Eigen::VectorXd g;
+  Eigen::VectorXd g, b, stretch;  // w_solve's scratch
 };
 
 // xdot at (t, x) and the Jacobian approximation there.
@@ -103,7 +107,8 @@ void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t_s, const Eige
 void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd& x, const Eigen::VectorXd& excitation,
                             const MuscleDrivenWorkspace& ws, MuscleDrivenJacobian& jac, const Eigen::VectorXd& xdot);
 // k = (I - gamma_h J)^-1 rhs with the prepared J (block triangular: activation, fibre, then speed and
-// position together through the contact terms).
+// position together through the contact terms and the tendons, then the fibres' share of the joints'
+// motion).
 void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& jac, double gamma_h,
                            const Eigen::VectorXd& rhs, Eigen::VectorXd& k);
 

@@ -75,6 +75,7 @@ struct Curves {
   // exact for the undamped model, the damped one's starting guess.
   SmoothSegmentedFunction force_velocity_inverse;
   bool use_fiber_damping = true;
+  double sin_max_pennation = 0, cos_max_pennation = 1;  // of parameters.maximum_pennation_angle_rad
 };
 Curves make_curves(const Parameters& p);
 

@@ -33,10 +33,20 @@ double compliant_equilibrium_fiber_length(const Muscle& m, double activation, do
 // equilibrateMuscles sets (Schutte1993Muscle by its own iteration).
 double isometric_fiber_length(const Muscle& m, double activation, double path_length_m);
 
+// What a caller of compliant_muscle_after knows at the start, shared by its calls from one state:
+// the fibre velocity there (m/s; NaN: unknown) and the fibre velocity's slope against fibre length
+// (1/s, <= 0; NaN: unknown, then found and stored by the first call).
+struct PredictorStart {
+  double fiber_velocity_m_s = std::numeric_limits<double>::quiet_NaN();
+  double velocity_slope_per_s = std::numeric_limits<double>::quiet_NaN();
+};
+
 // A compliant muscle's state after `duration_s` of constant excitation while its path length moves
-// linearly from L0 to L1: activation by RK4, fibre length by backward Euler (the fibre equation is
-// stiff at low activation: its rate constant reaches ~1e4 /s), 1 ms substeps. CMC's force predictor.
+// linearly from L0 to L1: activation as thelen_activation_after steps it, fibre length by BDF2
+// (the fibre equation is stiff at low activation: its rate constant reaches ~1e4 /s), substeps of at
+// most 1.7 ms. CMC's force predictor. `start` (optional) saves the evaluations it holds.
 CompliantMuscleState compliant_muscle_after(const Muscle& m, double activation, double fiber_length_m, double L0_m,
-                                            double L1_m, double excitation, double duration_s);
+                                            double L1_m, double excitation, double duration_s,
+                                            PredictorStart* start = nullptr);
 
 }  // namespace cpgait::muscles

@@ -42,9 +42,11 @@ class SmoothSegmentedFunction {
   // kTable / width.
   struct Polynomials {
     std::array<double, 6> x, y;
-    double x_begin, width, nodes_per_x;
+    double x_begin, x_end, width, nodes_per_x;
   };
   std::vector<Polynomials> polynomials_;
+  // locate()'s Newton from a start the table left further out.
+  static void refine(double x, const Polynomials& p, double& u);
   // Per segment, u and du/dx at evenly spaced x: their cubic Hermite interpolant starts Newton within
   // 1e-7 of the segment's width on Millard's curves, and one step finishes (OpenSim starts from a
   // spline of u(x) too). At 32 nodes two thirds of a CMC's force-velocity lookups, near isometric,
