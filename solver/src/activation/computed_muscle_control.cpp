@@ -161,13 +161,17 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   sys.contacts = loads || !contacts ? nullptr : &ground;
   sys.compliant_tendons = options.compliant_tendons;
   r.summary.external_forces = loads ? "measured loads" : (sys.contacts ? "contact spheres" : "none");
-  MuscleDrivenWorkspace ws(sys);
+  // ws holds the evaluation at the current state, ws_solve the one at the predicted state where the
+  // forces are solved: the integration's first step reuses the former.
+  MuscleDrivenWorkspace ws(sys), ws_solve(sys);
   auto& fd = ws.fd;
 
   // State.
   // Zeroed: the first derivative evaluation reads the fibre lengths before they are set (its muscle
   // forces are not used, but an uninitialised NaN there crashed a curve lookup).
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), xdot(sys.state_size()), x_pred(sys.state_size());
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), xdot(sys.state_size()), x_pred(sys.state_size()),
+                  xdot_solve(sys.state_size());
+  const Eigen::VectorXd no_excitation = Eigen::VectorXd::Zero(nm), no_controls = Eigen::VectorXd::Zero(na);
   Eigen::VectorXd qd_f(nq), ud_f(nq), ad_f(nq), qd_i(nq), ud_i(nq), ad_i(nq);
   trajectories_at(traj, t_begin, qd_i, ud_i, ad_i);
   x.head(nq) = qd_i;
@@ -204,18 +208,17 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   // evaluates it at the window's end, on the predicted state); activation limits from a_lo/a_hi.
   // Returns whether the accelerations were met.
   auto solve_forces = [&](double t, const Eigen::VectorXd& y) {
+    MuscleDrivenWorkspace& w = ws_solve;
     // Kinematics, mass matrix, bias (gravity, Coriolis, external loads), path geometry and actuator
     // columns from one derivative evaluation; its own muscle and actuator forces are not used.
-    excitation.setZero();
-    control_now.setZero();
-    muscle_driven_derivatives(sys, t, y, excitation, control_now, ws, xdot);
+    muscle_driven_derivatives(sys, t, y, no_excitation, no_controls, w, xdot_solve);
     for (int m = 0; m < nm; ++m) {
       const Muscle& mu = model.muscles[m];
       if (use_fiber_state) {
         // Compliant tendons, as OpenSim's CMC: each muscle's state integrated over the window with
         // its path moving to the predicted length, at the lowest and highest excitation.
-        path_end[m] = ws.geometry.length_m[m];
-        f_opt[m] = std::max(muscles::rigid_tendon_active_force(mu, 1.0, ws.geometry.length_m[m], ws.geometry.lengthening_speed_m_s[m]),
+        path_end[m] = w.geometry.length_m[m];
+        f_opt[m] = std::max(muscles::rigid_tendon_active_force(mu, 1.0, w.geometry.length_m[m], w.geometry.lengthening_speed_m_s[m]),
                             1e-3 * mu.max_isometric_force_N);
         f_pass[m] = 0;
         const double a0 = x[sys.activation_index(m)], lm0 = x[sys.fiber_length_index(m)];
@@ -223,14 +226,14 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         const double f_hi = muscles::compliant_muscle_after(mu, a0, lm0, path_start[m], path_end[m], u_max[m], T, &predictor_start[m]).force_N;
         lo[m] = std::min(f_lo, f_hi) / f_opt[m];
         hi[m] = std::max(f_lo, f_hi) / f_opt[m];
-        A.col(m) = ws.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
+        A.col(m) = w.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
         continue;
       }
-      const double L = path_length[m] = ws.geometry.length_m[m], V = path_speed[m] = ws.geometry.lengthening_speed_m_s[m];
+      const double L = path_length[m] = w.geometry.length_m[m], V = path_speed[m] = w.geometry.lengthening_speed_m_s[m];
       const RigidTendonForces full = muscles::rigid_tendon_forces(mu, 1.0, L, V);
       f_opt[m] = std::max(full.active_N, 1e-3 * mu.max_isometric_force_N);
       f_pass[m] = full.passive_N;
-      A.col(m) = ws.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
+      A.col(m) = w.geometry.moment_arm_m.row(m).transpose() * f_opt[m];
       // Thelen's force-velocity curve scales with activation, so the force is not linear in it: the
       // bounds are the forces at the reachable activations themselves (Millard's is linear; the same
       // code serves both).
@@ -239,18 +242,18 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       lo[m] = std::max(0.0, muscles::rigid_tendon_active_force(mu, a_lo[m], L, V) + f_pass[m]) / f_opt[m];
       hi[m] = std::max(0.0, muscles::rigid_tendon_active_force(mu, a_hi[m], L, V) + f_pass[m]) / f_opt[m];
     }
-    A.rightCols(na) = ws.actuator_columns;
+    A.rightCols(na) = w.actuator_columns;
     lo.tail(na) = u_min.tail(na);
     hi.tail(na) = u_max.tail(na);
     // M qdd = A x + tau_passive - bias  with  bias = C + G - J^T f_ext: the model's own passive
     // forces (coordinate limits, springs, path springs) carry their share before the actuators.
-    const double* qy = coupled ? ws.x_coupled.data() : y.data();
+    const double* qy = coupled ? w.x_coupled.data() : y.data();
     passive.setZero();
-    add_passive_generalized_forces(model, qy, qy + nq, fd.kinematics, fd.S, passive.data());
-    const Eigen::VectorXd bias = fd.bias - passive;
+    add_passive_generalized_forces(model, qy, qy + nq, w.fd.kinematics, w.fd.S, passive.data());
+    const Eigen::VectorXd bias = w.fd.bias - passive;
     DualNewtonSummary s;
     if (all_tracked) {
-      b = fd.M * qdd_des + bias;
+      b = w.fd.M * qdd_des + bias;
       s = minimize_power_sum(A, b, lo, hi, qp, lambda, sol);
       if (!s.converged && !r.residual_actuators.empty()) {
         // Out of reach within the constraints (typically residuals too weak for a model on contact
@@ -270,16 +273,16 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       if (coupled) {
         // Free accelerations: (G^T M G) a_free = G^T (A x - bias - M c), G and c at this state (the
         // derivative evaluation above left them in the workspace).
-        const Eigen::MatrixXd Mr = ws.G.transpose() * fd.M * ws.G;
+        const Eigen::MatrixXd Mr = w.G.transpose() * w.fd.M * w.G;
         const Eigen::LLT<Eigen::MatrixXd> llt(Mr);
-        const Eigen::MatrixXd MA = llt.solve(ws.G.transpose() * A);
-        const Eigen::VectorXd Mb = llt.solve(ws.G.transpose() * (bias + fd.M * ws.c));
+        const Eigen::MatrixXd MA = llt.solve(w.G.transpose() * A);
+        const Eigen::VectorXd Mb = llt.solve(w.G.transpose() * (bias + w.fd.M * w.c));
         for (int i = 0; i < nt; ++i) {
           At.row(i) = MA.row(free_index[tracked[i]]);
           bt[i] = qdd_des[tracked[i]] + Mb[free_index[tracked[i]]];
         }
       } else {
-        Minv = fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
+        Minv = w.fd.llt.solve(Eigen::MatrixXd::Identity(nq, nq));
         const Eigen::MatrixXd MA = Minv * A;
         const Eigen::VectorXd Mb = Minv * bias;
         for (int i = 0; i < nt; ++i) {
@@ -324,7 +327,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       for (int m = 0; m < nm; ++m) {
         const Muscle& mu = model.muscles[m];
         if (muscles::has_rigid_tendon(mu)) continue;
-        const double target = sol[m] * f_opt[m], L = ws.geometry.length_m[m], V = ws.geometry.lengthening_speed_m_s[m];
+        const double target = sol[m] * f_opt[m], L = ws_solve.geometry.length_m[m], V = ws_solve.geometry.lengthening_speed_m_s[m];
         auto fiber_at = [&](double a) { return muscles::compliant_equilibrium_fiber_length(mu, a, L, V); };
         // The force rises with activation: the shortfall falls.
         auto shortfall = [&](double a) { return target - muscles::compliant_tendon_fiber(mu, a, L, fiber_at(a)).force_N; };
@@ -351,9 +354,13 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   const int n_windows = static_cast<int>(std::floor((t_last - t_begin) / T + 1e-9));
   bool reset_done = t_out <= t_begin + 1e-12;
   double t = t_begin;
+  // Whether ws holds the evaluation at (t, x) with this window's excitations and controls (xdot its
+  // derivative): the window's first record and integration step then need none of their own.
+  bool start_fresh = false;
+  const bool step_controls = std::any_of(steps.begin() + nm, steps.end(), [](bool b) { return b; });
   auto record = [&](double time) {
     // Forces at the recorded state: one evaluation with the controls in force at that time.
-    muscle_driven_derivatives(sys, time, x, excitation, control_now, ws, xdot);
+    if (!start_fresh) muscle_driven_derivatives(sys, time, x, excitation, control_now, ws, xdot);
     r.time_s.push_back(time);
     rec_x.push_back(x);
     rec_fm.push_back(ws.muscle_force_N);
@@ -443,6 +450,13 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       excitation[m] = thelen_excitation_for(model.muscles[m], x[sys.activation_index(m)], a_target, T, u_min[m], u_max[m]);
     }
     control_new = sol.tail(na);
+    // The evaluation at (t, x) above serves the window's start once its activation rates follow the new
+    // excitations (its controls are the window's ramps' start; not so for step controls, nor where the
+    // actuators are re-solved per interval).
+    start_fresh = sys.compliant_tendons && !step_controls && !options.refresh_actuators;
+    if (start_fresh)
+      for (int m = 0; m < nm; ++m)
+        xdot[sys.activation_index(m)] = thelen_activation_rate(model.muscles[m], excitation[m], x[sys.activation_index(m)]);
     if (t >= t_out - 1e-9) {
       Eigen::VectorXd c(nx);
       if (r.control_time_s.empty()) {  // the node in force at the first output time
@@ -474,6 +488,13 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     bool form_jacobian = true;
     auto prepare = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
       controls_at(time);
+      if (start_fresh && &y == &x) {
+        start_fresh = false;
+        f0 = xdot;
+        muscle_driven_jacobian(sys, y, excitation, ws, jac, f0);
+        form_jacobian = false;
+        return;
+      }
       if (form_jacobian || sys.contacts) muscle_driven_prepare(sys, time, y, excitation, control_now, ws, jac, f0);
       else muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, f0);
       form_jacobian = false;
