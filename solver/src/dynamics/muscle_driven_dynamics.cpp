@@ -194,11 +194,10 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   // R^T diag(.) R products go muscle by muscle over the few coordinates each one crosses (a dense
   // product was 6 % of a reproduced gait's time).
   jac.crossed.resize(nm);
-  for (int m = 0; m < nm; ++m) {
-    jac.crossed[m].clear();
-    for (int c = 0; c < nq; ++c)
+  for (auto& list : jac.crossed) list.clear();
+  for (int c = 0; c < nq; ++c)  // down the columns: the matrix is column-major
+    for (int m = 0; m < nm; ++m)
       if (jac.moment_arm(m, c) != 0) jac.crossed[m].push_back(c);
-  }
   if (!sys.compliant_tendons && nm > 0) {
     jac.muscle_damping.setZero(nq, nq);
     add_moment_arm_product(jac, jac.dF_dV, 1.0, jac.muscle_damping);

@@ -10,11 +10,11 @@
 //     F_opt a muscle's force at full activation with a stiff tendon (OpenSim's weighting), each
 //     muscle force limited to what it can reach by t + T from its current state: the muscle's
 //     activation and fibre length integrated over the window at the lowest and highest excitation
-//     while its path moves to the predicted length (compliant tendons), or its activation alone
-//     (rigid tendons).
-//  3. Each muscle's excitation: the constant excitation that gives that force at t + T (bisection;
-//     the force rises with excitation).
-//  4. Forward dynamics of the muscle-driven model over the window (Dormand-Prince, error
+//     while its path moves to the predicted length (compliant tendons: muscles::compliant_muscle_after),
+//     or its activation alone (rigid tendons).
+//  3. Each muscle's excitation: the constant excitation that gives that force at t + T (Illinois
+//     regula falsi; the force rises with excitation).
+//  4. Forward dynamics of the muscle-driven model over the window (ROS2 by default, error
 //     controlled), muscle excitations held (OpenSim's step controls), actuator controls ramped.
 // The run starts settle_s before the first output time so activations are in equilibrium there
 // (OpenSim starts 0.03 s early as well); at the first output time q and u are reset to the desired
