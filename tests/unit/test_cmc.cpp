@@ -78,10 +78,25 @@ TEST(RosenbrockW, SecondOrderAndStableOnStiffModes) {
   RosenbrockOptions o;
   o.relative_tolerance = o.absolute_tolerance = 1e-6;
   o.max_step_s = 1.0;
-  const auto s = integrate_ros2(f, prepare, solve, 0.0, 2.0, x, o);
+  // Every accepted step is reported once, end to end from t0 to t1, with the state it ended in.
+  long reported = 0;
+  double t_reached = 0.0;
+  Eigen::VectorXd x_reached = x;
+  const WStepDone step_done = [&](double ta, const Eigen::VectorXd& xa, double tb, const Eigen::VectorXd& xb) {
+    EXPECT_EQ(ta, t_reached);
+    EXPECT_EQ(xa, x_reached);
+    EXPECT_GT(tb, ta);
+    t_reached = tb;
+    x_reached = xb;
+    ++reported;
+  };
+  const auto s = integrate_ros2(f, prepare, solve, 0.0, 2.0, x, o, step_done);
   ASSERT_TRUE(s.success) << s.message;
   EXPECT_NEAR(x[1], std::exp(-2.0), 1e-4);
   EXPECT_NEAR(x[0], std::exp(-2.0), 1e-4);
+  EXPECT_EQ(reported, s.accepted_steps);
+  EXPECT_EQ(t_reached, 2.0);
+  EXPECT_EQ(x_reached, x);
   // Dormand-Prince at the same tolerance is held to its stability bound (h < 3.3e-4 s).
   Eigen::VectorXd x_explicit(2);
   x_explicit << 0.0, 1.0;
@@ -398,6 +413,16 @@ TEST(ComputedMuscleControl, TracksSyntheticWalkerKinematics) {
     }
     EXPECT_NEAR(r.time_s.front(), 0.1, 1e-9);
     EXPECT_NEAR(r.time_s.back(), 1.0, 1e-6);
+    // A record at every output interval, whether the integrator stops there (refresh, Dormand-Prince)
+    // or steps across and the record is interpolated (the default).
+    ASSERT_EQ(r.time_s.size(), 901u) << "variant " << variant;
+    for (std::size_t i = 1; i < r.time_s.size(); ++i) ASSERT_NEAR(r.time_s[i] - r.time_s[i - 1], o.output_interval_s, 1e-9) << i;
+    // The interpolated records lie on the integrated path: the q recorded at each window's start
+    // (an integrated state) against the straight line through its neighbours 1 ms away differs by
+    // no more than q's curvature allows (|q''| h^2 / 2 with q'' < 100 rad/s^2 here).
+    for (std::size_t i = 10; i + 1 < r.time_s.size(); i += 10)
+      for (int c = 0; c < m.num_coordinates(); ++c)
+        EXPECT_LT(std::abs(r.q(i, c) - 0.5 * (r.q(i - 1, c) + r.q(i + 1, c))), 100 * 1e-6 / 2) << i << " " << c;
     EXPECT_EQ(cmc_states_table(r).labels.size(), 1 + 2 * m.num_coordinates() + 2 * m.muscles.size());
     EXPECT_NE(cmc_average_residuals_text(r).find("pelvis_tx_reserve average"), std::string::npos);
   }

@@ -6,7 +6,7 @@
 namespace cpgait {
 
 DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
-                                    double t1, Eigen::VectorXd& x, const RosenbrockOptions& o) {
+                                    double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
   DormandPrinceSummary s;
   const long n = x.size();
   const double gamma = 1.0 + 1.0 / std::sqrt(2.0);
@@ -39,8 +39,10 @@ DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepar
     const double norm = scaled_rms_error(rhs, x, y, o.relative_tolerance, o.absolute_tolerance);
     const double factor = std::clamp(0.9 / std::sqrt(std::max(norm, 1e-10)), 0.2, 5.0);
     if (norm <= 1.0) {
+      const double t_next = last ? t1 : t + h;
+      if (step_done) step_done(t, x, t_next, y);
       x = y;
-      t = last ? t1 : t + h;
+      t = t_next;
       prepared = false;
       next_step_after_accept(h, factor, last, h_unclipped, o.max_step_s, s);
     } else if (!next_step_after_reject(h, factor, o.min_step_s, t, s)) {

@@ -33,8 +33,13 @@ struct RosenbrockOptions {
 using WPrepare = std::function<void(double t, const Eigen::VectorXd& x, Eigen::VectorXd& f0)>;
 using WSolve = std::function<void(double gamma_h, const Eigen::VectorXd& rhs, Eigen::VectorXd& k)>;
 
+// step_done(t_a, x_a, t_b, x_b): called after each accepted step from t_a to t_b, before the next
+// one begins (a caller's dense output: states between steps, without cutting the steps there).
+using WStepDone = std::function<void(double t_a, const Eigen::VectorXd& x_a, double t_b, const Eigen::VectorXd& x_b)>;
+
 // Same summary as the explicit integrator (evaluations counts f only).
 DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
-                                    double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {});
+                                    double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
+                                    const WStepDone& step_done = {});
 
 }  // namespace cpgait
