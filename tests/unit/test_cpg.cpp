@@ -88,6 +88,7 @@ Eigen::MatrixXd patterns_of(const CpgModel& m, int samples, double& period) {
   const double dt = 0.001;
   const CpgRun r = run_cpg(m, 60.0 * m.network.tau_a_s.maxCoeff(), dt);
   period = oscillation_period(r.neurons.col(0), dt, static_cast<int>(r.neurons.rows() / 2));
+  if (period <= 0) return {};  // no oscillation: no cycle to sample (and the rows below would overrun)
   const double per = period / dt, end = static_cast<double>(r.neurons.rows() - 1);
   Eigen::MatrixXd out(samples, r.excitations.cols());
   for (int k = 0; k < samples; ++k) {
