@@ -336,7 +336,7 @@ TEST(OsimReader, EveryReferenceModelLoads) {
       EXPECT_EQ(w.find("no joint"), std::string::npos) << w;
       EXPECT_EQ(w.find("Thelen2003Muscle"), std::string::npos) << w;
       EXPECT_EQ(w.find("Millard2012EquilibriumMuscle"), std::string::npos) << w;
-      // Read and computed now: no "not supported" for them (Schutte's one note says what it covers).
+      // Read and computed now: no "not supported" for them.
       for (const char* type : {"Schutte1993Muscle", "RigidTendonMuscle", "CoordinateLimitForce", "CoordinateCouplerConstraint"})
         if (w.find(type) != std::string::npos) {
           EXPECT_EQ(w.find("not supported"), std::string::npos) << w;

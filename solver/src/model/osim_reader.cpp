@@ -740,14 +740,14 @@ class Reader {
     function_property(n, "active_force_length_curve", c.active_force_length);
     c.exponential_passive = !function_property(n, "passive_force_length_curve", c.passive_force_length);
     c.damping = d_.number(n, "damping", c.damping);
+    c.time_scale_s = d_.number(n, "time_scale", c.time_scale_s);
+    c.activation1 = d_.number(n, "activation1", c.activation1);
+    c.activation2 = d_.number(n, "activation2", c.activation2);
+    if (!(c.time_scale_s > 0))
+      throw InputError(d_.name(), d_.line_of(n.child("time_scale") ? n.child("time_scale") : n), "time_scale",
+                       "muscle " + mu.name + ": time_scale must be positive");
     mu.schutte = std::make_shared<const schutte1993::Curves>(std::move(c));
-    if (!warned_schutte_) {
-      warned_schutte_ = true;
-      warn(n, "its equilibrium fibre length follows OpenSim's; static optimization and the dynamics "
-              "use Thelen 2003's curves with its lengths and forces");
-    }
   }
-  bool warned_schutte_ = false;
 
   // DeGrooteFregly2016Muscle's properties, with OpenSim's defaults (its activation time constants
   // differ from the other muscles': 0.015 and 0.060 s).

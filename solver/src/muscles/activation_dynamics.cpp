@@ -5,6 +5,7 @@
 
 #include "cpgait/muscles/degroote_fregly2016.h"
 #include "cpgait/muscles/millard2012.h"
+#include "cpgait/muscles/schutte1993.h"
 
 namespace cpgait {
 
@@ -13,6 +14,7 @@ double thelen_activation_rate(const Muscle& m, double u, double a) {
   u = std::clamp(u, m.min_control, m.max_control);
   // A RigidTendonMuscle's activation is its control: the state follows it within a millisecond.
   if (m.rigid_tendon) return (u - a) / 1e-3;
+  if (m.schutte) return schutte1993::activation_rate(m, u, a);
   // Millard's activation model is the same equation with the activation held to its range.
   if (m.millard) a = std::clamp(a, m.millard->parameters.minimum_activation, 1.0);
   const double tau = u > a ? m.activation_time_constant_s * (0.5 + 1.5 * a) : m.deactivation_time_constant_s / (0.5 + 1.5 * a);

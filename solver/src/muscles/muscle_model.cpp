@@ -21,23 +21,26 @@ bool has_rigid_tendon(const Muscle& m) {
 
 RigidTendonForces rigid_tendon_forces(const Muscle& m, double a, double L, double V) {
   if (m.rigid_tendon) return rigid_tendon_muscle::forces(m, a, L, V);
+  if (m.schutte) return schutte1993::rigid_tendon_forces(m, a, L, V);
   if (m.degroote) return degroote_fregly2016::rigid_tendon_forces(m, a, L, V);
   return m.millard ? millard2012::rigid_tendon_forces(m, a, L, V) : thelen2003::rigid_tendon_forces(m, a, L, V);
 }
 
 double rigid_tendon_active_force(const Muscle& m, double a, double L, double V) {
-  if (m.rigid_tendon || m.degroote || m.millard) return rigid_tendon_forces(m, a, L, V).active_N;
+  if (m.rigid_tendon || m.degroote || m.millard || m.schutte) return rigid_tendon_forces(m, a, L, V).active_N;
   return thelen2003::rigid_tendon_active_force(m, a, L, V);
 }
 
 double rigid_tendon_fiber_length(const Muscle& m, double L) {
   if (m.rigid_tendon) return rigid_tendon_muscle::fiber_length(m, L);
+  if (m.schutte) return schutte1993::rigid_tendon_fiber_length(m, L);
   if (m.degroote) return degroote_fregly2016::rigid_tendon_fiber_length(m, L);
   return m.millard ? millard2012::rigid_tendon_fiber_length(m, L) : thelen2003::rigid_tendon_fiber(m, L, 0.0).fiber_length_m;
 }
 
 CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double a, double L, double lm, double velocity_guess_m_s) {
-  if (!m.millard && !m.degroote && !m.rigid_tendon) return thelen2003::compliant_tendon_fiber(m, a, L, lm);  // most muscles
+  if (!m.millard && !m.degroote && !m.rigid_tendon && !m.schutte) return thelen2003::compliant_tendon_fiber(m, a, L, lm);  // most muscles
+  if (m.schutte) return schutte1993::compliant_tendon_fiber(m, a, L, lm);
   if (has_rigid_tendon(m)) {  // no fibre state: the force at rest, the fibre held on the path
     const RigidTendonForces f = rigid_tendon_forces(m, a, L, 0.0);
     return {f.active_N + f.passive_N, 0.0, 1.0};
@@ -48,13 +51,15 @@ CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double a, double L,
 
 double compliant_equilibrium_fiber_length(const Muscle& m, double a, double L, double V) {
   if (has_rigid_tendon(m)) return rigid_tendon_fiber_length(m, L);
+  // OpenSim's computeInitialFiberEquilibrium for this muscle is its isometric equilibrium.
+  if (m.schutte) return schutte1993::isometric_equilibrium(m, a, L).fiber_length_m;
   if (m.degroote) return degroote_fregly2016::compliant_equilibrium_fiber_length(m, a, L, V);
   return m.millard ? millard2012::compliant_equilibrium_fiber_length(m, a, L, V)
                    : thelen2003::compliant_equilibrium_fiber_length(m, a, L, V);
 }
 
 double isometric_fiber_length(const Muscle& m, double a, double L) {
-  return m.schutte ? schutte1993::isometric_fiber_length(m, a, L) : compliant_equilibrium_fiber_length(m, a, L, 0.0);
+  return m.schutte ? schutte1993::isometric_equilibrium(m, a, L).fiber_length_m : compliant_equilibrium_fiber_length(m, a, L, 0.0);
 }
 
 CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm, double L0, double L1, double u, double T,
@@ -66,7 +71,9 @@ CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm
     const RigidTendonForces f = rigid_tendon_forces(m, a, L1, (L1 - L0) / T);
     return {a, rigid_tendon_fiber_length(m, L1), f.active_N + f.passive_N};
   }
-  const double lm_min = m.millard ? millard2012::min_fiber_length(m) : thelen2003::min_fiber_length(m);
+  const double lm_min = m.millard   ? millard2012::min_fiber_length(m)
+                        : m.schutte ? schutte1993::min_fiber_length(m)
+                                    : thelen2003::min_fiber_length(m);
   // CMC's tracking depends on this: stopping at 1e-9 of the optimal length on g doubled subject01's
   // pelvis and lumbar errors (0.22 -> 0.45 deg pelvis_list); from 1e-11 down they no longer change.
   const double tol = 1e-11 * m.optimal_fiber_length_m;

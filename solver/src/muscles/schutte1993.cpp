@@ -37,15 +37,19 @@ Curves default_curves() {
   return c;
 }
 
-double isometric_fiber_length(const Muscle& m, double activation, double length) {
+Isometric isometric_equilibrium(const Muscle& m, double activation, double length) {
   const Curves& c = *m.schutte;
   const double lopt = m.optimal_fiber_length_m, tsl = m.tendon_slack_length_m, F0 = m.max_isometric_force_N;
   const double alpha0 = m.pennation_angle_at_optimal_rad;
   constexpr double kRoundoff = 1e-7;  // OpenSim's ROUNDOFF_ERROR
-  if (lopt < kRoundoff) return 0.0;
+  if (lopt < kRoundoff) return {0.0, 0.0};
   const double width = lopt * std::sin(alpha0);
-  if (tsl < kRoundoff) return length / std::cos(std::atan(width / length));
-  if (length < tsl) return width;
+  if (tsl < kRoundoff) {
+    const double cos_factor = std::cos(std::atan(width / length)), fiber = length / cos_factor;
+    const double active = std::max(0.0, c.active_force_length.value(fiber / lopt) * activation);
+    return {fiber, (active + passive(c, fiber / lopt)) * F0 * cos_factor};
+  }
+  if (length < tsl) return {width, 0.0};
   double fiber = lopt;
   double cos_factor = std::cos(pennation(fiber, lopt, alpha0));
   double tendon = length - fiber * cos_factor;
@@ -55,7 +59,7 @@ double isometric_fiber_length(const Muscle& m, double activation, double length)
     fiber = (length - tendon) / cos_factor;
     if (fiber < width) fiber = width;
   }
-  double old_fiber = std::numeric_limits<double>::quiet_NaN(), error = 0.0;
+  double old_fiber = std::numeric_limits<double>::quiet_NaN(), error = 0.0, tendon_force = 0.0;
   for (int i = 0; i < 100; ++i) {
     double active = c.active_force_length.value(fiber / lopt) * activation;
     if (active < 0.0) active = 0.0;
@@ -63,7 +67,7 @@ double isometric_fiber_length(const Muscle& m, double activation, double length)
     if (pas < 0.0) pas = 0.0;
     const double fiber_force = (active + pas) * F0 * cos_factor;
     const double strain = tendon / tsl - 1.0;
-    const double tendon_force = strain < 0.0 ? 0.0 : c.tendon_force_length.value(strain) * F0;
+    tendon_force = strain < 0.0 ? 0.0 : c.tendon_force_length.value(strain) * F0;
     double old_error = error;
     error = tendon_force - fiber_force;
     if (std::abs(error) <= 0.01) break;  // OpenSim's ERROR_LIMIT, newtons
@@ -94,7 +98,81 @@ double isometric_fiber_length(const Muscle& m, double activation, double length)
       fiber = (length - tendon) / cos_factor;
     }
   }
-  return fiber;
+  return {fiber, tendon_force};
+}
+
+namespace {
+
+// ActivationFiberLengthMuscle_Deprecated::evaluateForceLengthVelocityCurve's force-velocity factor;
+// v: normalised shortening velocity (positive concentric).
+double generic_force_velocity(double shortening_vN) { return 1.8 - 1.8 / (1.0 + std::exp((0.04 - shortening_vN) / 0.18)); }
+
+// Schutte1993Muscle_Deprecated::calcFiberVelocity: the normalised fibre velocity (optimal lengths
+// per time_scale) from the inverse force-velocity relation with damping.
+double fiber_velocity_normalised(double damping, double a, double active, double velocity_force) {
+  constexpr double kv = 0.15, slope_k = 0.13, fmax = 1.4;
+  if (velocity_force < -damping) return velocity_force / damping;
+  if (velocity_force < a * active) {
+    const double c = kv * (velocity_force - a * active) / damping;
+    const double b = -kv * (velocity_force / kv + a * active + damping) / damping;
+    return (-b - std::sqrt(b * b - 4 * c)) / 2.0;
+  }
+  const double c = -(slope_k * kv / (damping * (kv + 1))) * (velocity_force - a * active);
+  const double b = -(velocity_force / damping - fmax * a * active / damping - slope_k * kv / (kv + 1));
+  return (-b + std::sqrt(b * b - 4 * c)) / 2.0;
+}
+
+}  // namespace
+
+double inextensible_tendon_active_force(const Muscle& m, double activation, double L, double V) {
+  const double vN = -std::cos(m.pennation_angle_at_optimal_rad) * V / (m.max_contraction_velocity * m.optimal_fiber_length_m);
+  return isometric_equilibrium(m, activation, L).tendon_force_N * generic_force_velocity(vN);
+}
+
+double min_fiber_length(const Muscle& m) {
+  return std::max(m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad), 0.01 * m.optimal_fiber_length_m);
+}
+
+double rigid_tendon_fiber_length(const Muscle& m, double L) {
+  const double along = std::max(L - m.tendon_slack_length_m, 0.0);
+  const double width = m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad);
+  return std::max(std::sqrt(along * along + width * width), min_fiber_length(m));
+}
+
+RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double L, double V) {
+  const Curves& c = *m.schutte;
+  const double lm = rigid_tendon_fiber_length(m, L), lN = lm / m.optimal_fiber_length_m;
+  const double cos_pen = std::cos(pennation(lm, m.optimal_fiber_length_m, m.pennation_angle_at_optimal_rad));
+  const double vN = -cos_pen * V / (m.max_contraction_velocity * m.optimal_fiber_length_m);
+  const double active = std::max(0.0, c.active_force_length.value(lN)) * activation * generic_force_velocity(vN);
+  return {m.max_isometric_force_N * active * cos_pen, m.max_isometric_force_N * std::max(0.0, passive(c, lN)) * cos_pen};
+}
+
+CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double L, double lm) {
+  const Curves& c = *m.schutte;
+  const double lopt = m.optimal_fiber_length_m, tsl = m.tendon_slack_length_m;
+  lm = std::max(lm, min_fiber_length(m));
+  const double lN = lm / lopt;
+  const double cos_pen = std::cos(pennation(lN, 1.0, m.pennation_angle_at_optimal_rad));
+  const double strain = (L - lm * cos_pen) / tsl - 1.0;
+  const double tendon = strain < 0.0 ? 0.0 : c.tendon_force_length.value(strain);
+  const double active = std::max(0.0, c.active_force_length.value(lN));
+  double vN;  // optimal lengths per time_scale
+  if (std::abs(cos_pen) < 1e-7) {
+    // Fibres at 90 degrees: still until the tendon pulls, then moving with the path (OpenSim's
+    // stiff-tendon estimate; the path speed is not known here, so at rest).
+    vN = 0.0;
+  } else {
+    const double velocity_force = std::max(0.0, tendon / cos_pen - passive(c, lN));
+    vN = fiber_velocity_normalised(c.damping, activation, active, velocity_force);
+  }
+  return {m.max_isometric_force_N * tendon, vN * lopt / c.time_scale_s, cos_pen};
+}
+
+double activation_rate(const Muscle& m, double u, double a) {
+  const Curves& c = *m.schutte;
+  const double rate = u >= a ? (u - a) * (c.activation1 * u + c.activation2) : (u - a) * c.activation2;
+  return rate / c.time_scale_s;
 }
 
 }  // namespace cpgait::schutte1993

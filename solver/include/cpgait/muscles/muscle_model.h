@@ -1,6 +1,6 @@
 #pragma once
 // A muscle's forces by its own model: OpenSim's Millard2012EquilibriumMuscle (millard2012.h),
-// DeGrooteFregly2016Muscle, RigidTendonMuscle and Schutte1993Muscle (its equilibrium) for the muscles
+// DeGrooteFregly2016Muscle, RigidTendonMuscle and Schutte1993Muscle (schutte1993.h) for the muscles
 // that are one, Thelen 2003 (thelen2003.h) for the others. The dynamics, CMC and the gait call these;
 // the models' own functions stay specific.
 #include <limits>
