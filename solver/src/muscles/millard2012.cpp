@@ -201,11 +201,11 @@ struct FixedWidthPennation {
     const double s = height / fiber_length;
     return s < max_sin ? std::asin(s) : max_angle;
   }
-  double cos_angle(double fiber_length) const {  // cos(angle(fiber_length)), without a cos where it is known
+  double cos_angle(double fiber_length) const {  // cos(angle(fiber_length)), without a cos or an asin
     if (!pennated) return 1.0;
     if (fiber_length <= min_fiber_length) return max_cos;
     const double s = height / fiber_length;
-    return s < max_sin ? std::cos(std::asin(s)) : max_cos;
+    return s < max_sin ? std::sqrt(1.0 - s * s) : max_cos;
   }
   double fiber_length(double path_length, double tendon_length) const {
     const double along = path_length - tendon_length;
