@@ -482,29 +482,34 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
       const double s = std::clamp((time - t_window) / T, 0.0, 1.0);
       for (int j = 0; j < na; ++j) control_now[j] = steps[nm + j] ? control_new[j] : control_prev[j] + s * (control_new[j] - control_prev[j]);
     };
+    int evaluations_since_prepare = 0;  // by f since the last step began; more than one: a step was retried
     auto f = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+      ++evaluations_since_prepare;
       controls_at(time);
       muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, dy);
     };
-    // With measured loads the Jacobian is formed once per output interval (dt_out) and serves the
-    // steps until the next (ROS2 is a W-method: any W keeps its order; 2.4 -> 2.6x real time on
-    // subject01). On contact spheres it is formed every step: a sphere touching down changes it
-    // within the interval, and reusing it there took 6 % more steps and doubled mtp_r's error.
+    // Without contact spheres the Jacobian is formed at the window's start and again after a step
+    // that had to be retried (ROS2 is a W-method: any W keeps its order, but a stale one loses the
+    // stiff parts' stability). Against forming it every 1 ms output interval: gait10dof18musc takes
+    // as many steps (2786 against 2784) on 6.5 % fewer instructions, subject01 1 % more instructions,
+    // the leg6dof9musc swing 897 steps instead of 909 (callgrind). Once per window without the retry
+    // rule failed that swing (28 of 50 windows infeasible, 1642 steps). On contact spheres it is
+    // formed every step: a sphere touching down changes it within the interval, and reusing it there
+    // took 6 % more steps and doubled mtp_r's error.
     bool form_jacobian = true;
-    double next_jacobian_s = t_window;
     auto prepare = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& f0) {
       controls_at(time);
+      const bool retried = evaluations_since_prepare > 1;
+      evaluations_since_prepare = 0;
       if (start_fresh && &y == &x) {
         start_fresh = false;
         f0 = xdot;
         muscle_driven_jacobian(sys, y, excitation, ws, jac, f0);
-        next_jacobian_s = time + dt_out;
         form_jacobian = false;
         return;
       }
-      if (form_jacobian || sys.contacts || time >= next_jacobian_s - 1e-12) {
+      if (form_jacobian || retried || sys.contacts) {
         muscle_driven_prepare(sys, time, y, excitation, control_now, ws, jac, f0);
-        next_jacobian_s = time + dt_out;
       } else {
         muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, f0);
       }
