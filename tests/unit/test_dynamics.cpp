@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <random>
 
 #include "cpgait/capture/input_error.h"
@@ -101,29 +102,60 @@ TEST(Rnea, MatchesLagrangesEquations) {
   }
 }
 
-// The pose and motion subspace copied out of RNEA's Jet pass are the ones computed on doubles.
-TEST(Rnea, KinematicsValuesAreTheDoublePass) {
-  const Model& m = walker();
+// dS/dt from motion_subspace_rate (each column turned by its parent's velocity, plus its own joint's
+// functions on a Jet) is the derivative that motion_subspace on a Jet carrying qd gives down the whole
+// tree; and the two-part RNEA is RNEA.
+void expect_rate_is_the_jet_pass(const Model& m, std::mt19937& rng, const std::string& what) {
   const int n = m.num_coordinates();
+  using Jet = ceres::Jet<double, 1>;
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::VectorXd q = random_vector(n, rng, 0.5), qd = random_vector(n, rng, 3.0);
+    DynamicsWorkspace dyn(m);
+    rnea_kinematics(m, q.data(), qd.data(), dyn);
+    std::vector<Jet> q_jet(n);
+    for (int c = 0; c < n; ++c) q_jet[c] = Jet(q[c], 0), q_jet[c].v[0] = qd[c];
+    KinematicsWorkspace<Jet> kin(m);
+    MotionSubspaceT<Jet> S(m);
+    forward_kinematics(m, q_jet.data(), kin);
+    motion_subspace(m, q_jet.data(), kin, S);
+    double worst = 0, scale = 1;
+    for (int c = 0; c < n; ++c)
+      for (int r = 0; r < 6; ++r) {
+        worst = std::max(worst, std::abs(dyn.S_rate(r, c) - S.columns(r, c).v[0]));
+        scale = std::max(scale, std::abs(S.columns(r, c).v[0]));
+        ASSERT_NEAR(dyn.S.columns(r, c), S.columns(r, c).a, 1e-14) << what;
+      }
+    EXPECT_LT(worst, 1e-12 * scale) << what << ": largest |dS/dt| " << scale;
+  }
+}
+
+TEST(Rnea, MotionSubspaceRateIsTheJetPassesDerivative) {
   std::mt19937 rng(11);
-  const Eigen::VectorXd q = random_vector(n, rng, 0.5), qd = random_vector(n, rng, 2.0);
+  const Model& m = walker();
+  expect_rate_is_the_jet_pass(m, rng, "walker");
+  const int n = m.num_coordinates();
+  const Eigen::VectorXd q = random_vector(n, rng, 0.5), qd = random_vector(n, rng, 2.0), qdd = random_vector(n, rng, 5.0);
   DynamicsWorkspace dyn(m);
   rnea_kinematics(m, q.data(), qd.data(), dyn);
-  KinematicsWorkspace<double> from_jet(m), direct(m);
-  MotionSubspace S_from_jet(m), S_direct(m);
-  kinematics_values(dyn, from_jet, S_from_jet);
-  forward_kinematics(m, q.data(), direct);
-  motion_subspace(m, q.data(), direct, S_direct);
-  for (std::size_t b = 0; b < m.bodies.size(); ++b) {
-    EXPECT_LT((from_jet.body_in_ground[b].rotation - direct.body_in_ground[b].rotation).cwiseAbs().maxCoeff(), 1e-14) << b;
-    EXPECT_LT((from_jet.body_in_ground[b].translation_m - direct.body_in_ground[b].translation_m).cwiseAbs().maxCoeff(), 1e-14) << b;
-  }
-  EXPECT_LT((S_from_jet.columns - S_direct.columns).cwiseAbs().maxCoeff(), 1e-14);
-  // And the two-part RNEA is RNEA.
-  const Eigen::VectorXd qdd = random_vector(n, rng, 5.0);
   Eigen::VectorXd tau_parts(n);
   rnea_from_kinematics(m, qd.data(), qdd.data(), {}, dyn, tau_parts.data());
   EXPECT_LT((tau_parts - rnea_tau(m, q, qd, qdd)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// The same on every model under ../shared: ball joints, spline-coupled knees, 2.x documents, couplers.
+TEST(Rnea, MotionSubspaceRateOnEveryReferenceModel) {
+  const std::string root = refdata::shared_path("opensim");
+  REQUIRE_REFERENCE(root);
+  std::mt19937 rng(12);
+  int models = 0;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(root)) {
+    if (e.path().extension() != ".osim") continue;
+    const Model m = read_osim(e.path().string()).model;
+    if (m.num_coordinates() == 0) continue;
+    expect_rate_is_the_jet_pass(m, rng, e.path().string());
+    ++models;
+  }
+  EXPECT_GE(models, 30);
 }
 
 TEST(Rnea, StaticPoseBalancesGravityExactly) {

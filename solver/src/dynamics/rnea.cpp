@@ -3,26 +3,14 @@
 namespace cpgait {
 
 void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws) {
-  const int nq = model.num_coordinates();
-  for (int c = 0; c < nq; ++c) {
-    ws.q_jet[c].a = q[c];
-    ws.q_jet[c].v[0] = qd[c];
-  }
-  forward_kinematics(model, ws.q_jet.data(), ws.kinematics);
-  motion_subspace(model, ws.q_jet.data(), ws.kinematics, ws.S);
+  forward_kinematics(model, q, ws.kinematics);
+  motion_subspace(model, q, ws.kinematics, ws.S);
+  motion_subspace_rate(model, q, qd, ws.kinematics, ws.S, ws.q_jet, ws.S_rate);
 }
 
 void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>& kinematics, MotionSubspace& S) {
-  for (std::size_t b = 0; b < kinematics.body_in_ground.size(); ++b) {
-    const auto& from = ws.kinematics.body_in_ground[b];
-    auto& to = kinematics.body_in_ground[b];
-    for (int r = 0; r < 3; ++r) {
-      to.translation_m[r] = from.translation_m[r].a;
-      for (int k = 0; k < 3; ++k) to.rotation(r, k) = from.rotation(r, k).a;
-    }
-  }
-  for (Eigen::Index c = 0; c < S.columns.cols(); ++c)
-    for (int r = 0; r < 6; ++r) S.columns(r, c) = ws.S.columns(r, c).a;
+  kinematics.body_in_ground = ws.kinematics.body_in_ground;
+  S.columns = ws.S.columns;
 }
 
 void rnea(const Model& model, const double* q, const double* qd, const double* qdd,
@@ -39,7 +27,7 @@ void rnea_from_kinematics(const Model& model, const double* qd, const double* qd
     Vector6d V = ws.velocity[j.parent_body], A = ws.acceleration[j.parent_body];
     for (int c : j.coordinates) {
       for (int r = 0; r < 6; ++r) {
-        const double s = ws.S.columns(r, c).a, sdot = ws.S.columns(r, c).v[0];
+        const double s = ws.S.columns(r, c), sdot = ws.S_rate(r, c);
         V[r] += s * qd[c];
         A[r] += s * qdd[c] + sdot * qd[c];
       }
@@ -50,12 +38,8 @@ void rnea_from_kinematics(const Model& model, const double* qd, const double* qd
     // Newton-Euler for the child body about its centre of mass, moved to the ground origin.
     const Body& b = model.bodies[j.child_body];
     const auto& X = ws.kinematics.body_in_ground[j.child_body];
-    Eigen::Matrix3d R;
-    Eigen::Vector3d p;
-    for (int r = 0; r < 3; ++r) {
-      p[r] = X.translation_m[r].a;
-      for (int k = 0; k < 3; ++k) R(r, k) = X.rotation(r, k).a;
-    }
+    const Eigen::Matrix3d& R = X.rotation;
+    const Eigen::Vector3d& p = X.translation_m;
     const Eigen::Vector3d c = R * b.com_m + p;
     const Eigen::Matrix3d I = R * b.inertia_kg_m2 * R.transpose();
     const Eigen::Vector3d w = V.head<3>(), alpha = A.head<3>();
@@ -73,7 +57,7 @@ void rnea_from_kinematics(const Model& model, const double* qd, const double* qd
     const Vector6d& f = ws.force[j.child_body];
     for (int c : j.coordinates) {
       double t = 0;
-      for (int r = 0; r < 6; ++r) t += ws.S.columns(r, c).a * f[r];
+      for (int r = 0; r < 6; ++r) t += ws.S.columns(r, c) * f[r];
       tau[c] = t;
     }
     if (j.parent_body > 0) ws.force[j.parent_body] += f;

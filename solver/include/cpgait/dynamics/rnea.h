@@ -2,7 +2,7 @@
 // Recursive Newton-Euler inverse dynamics: tau = M(q) qdd + C(q, qd) + G(q) - J^T f_ext.
 // Spatial quantities are in ground at the ground origin (Featherstone's fixed-frame form), so the
 // knee's spline-coupled translations need no special case: each coordinate's motion subspace S and
-// its rate dS/dt come from the coordinate functions (motion_subspace on a Jet carrying qd).
+// its rate dS/dt come from the coordinate functions (motion_subspace, motion_subspace_rate).
 #include <ceres/jet.h>
 
 #include <Eigen/Core>
@@ -23,23 +23,23 @@ inline Vector6d spatial_force(const Eigen::Vector3d& force_N, const Eigen::Vecto
 }
 
 struct DynamicsWorkspace {
-  using Jet = ceres::Jet<double, 1>;
-  std::vector<Jet> q_jet;
-  KinematicsWorkspace<Jet> kinematics;
-  MotionSubspaceT<Jet> S;
+  std::vector<ceres::Jet<double, 1>> q_jet;  // motion_subspace_rate's scratch
+  KinematicsWorkspace<double> kinematics;
+  MotionSubspace S;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> S_rate;  // dS/dt, column per coordinate
   std::vector<Vector6d> velocity, acceleration, force;  // per body
   explicit DynamicsWorkspace(const Model& m)
-      : q_jet(m.num_coordinates()), kinematics(m), S(m), velocity(m.bodies.size()), acceleration(m.bodies.size()),
-        force(m.bodies.size()) {}
+      : q_jet(m.num_coordinates()), kinematics(m), S(m), S_rate(6, m.num_coordinates()), velocity(m.bodies.size()),
+        acceleration(m.bodies.size()), force(m.bodies.size()) {}
 };
 
 // external[b]: spatial force applied to body b (empty vector: none). tau has num_coordinates().
 void rnea(const Model& model, const double* q, const double* qd, const double* qdd,
           const std::vector<Vector6d>& external, DynamicsWorkspace& ws, double* tau);
 
-// rnea in two parts, for a caller that needs the pose and motion subspace too: the kinematics on the
-// Jet (values and rates at once), their values copied out (what forward_kinematics and
-// motion_subspace on doubles would give), then the recursion on the kinematics already in ws.
+// rnea in two parts, for a caller that needs the pose and motion subspace too: the kinematics (pose,
+// S and dS/dt), copied out where the caller keeps its own, then the recursion on the kinematics
+// already in ws.
 void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws);
 void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>& kinematics, MotionSubspace& S);
 void rnea_from_kinematics(const Model& model, const double* qd, const double* qdd, const std::vector<Vector6d>& external,

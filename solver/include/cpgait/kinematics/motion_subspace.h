@@ -3,8 +3,10 @@
 // point at the ground origin) that a unit rate of that coordinate gives its joint's child, with the
 // joint's coupled functions (knee translations, ...) differentiated through. A point p fixed on a
 // descendant body moves with dp/dq_c = omega_c x p + v_c. Evaluated on a Jet whose dual part is
-// qdot, it also gives dS/dt exactly, which inverse dynamics needs. The IK Jacobian and the dynamics
-// share it.
+// qdot, it also gives dS/dt exactly, which inverse dynamics needs (motion_subspace_rate gets it
+// faster). The IK Jacobian and the dynamics share it.
+#include <ceres/jet.h>
+
 #include <Eigen/Core>
 #include <vector>
 
@@ -24,6 +26,36 @@ inline Eigen::Vector3d point_velocity_column(const MotionSubspace& S, int c, con
   return S.columns.col(c).head<3>().cross(p) + S.columns.col(c).tail<3>();
 }
 
+// One joint's share of the motion subspace: add(c, w, v) receives, for each coordinate c its axes
+// move, the angular (w) and ground-origin linear (v) velocity per unit rate of c, given the pose of
+// its parent frame F in ground (R_GF, p_GF). motion_subspace and motion_subspace_rate share it.
+template <typename T, typename Add>
+void joint_motion_subspace(const Joint& j, const Eigen::Matrix<T, 3, 3>& R_GF, const Eigen::Matrix<T, 3, 1>& p_GF, const T* q,
+                           Add&& add) {
+  using M3 = Eigen::Matrix<T, 3, 3>;
+  using V3 = Eigen::Matrix<T, 3, 1>;
+  V3 translation_F = V3::Zero();
+  for (int s = 3; s < 6; ++s) translation_F += j.axes[s].axis.cast<T>() * axis_value(j.axes[s], q);
+  const V3 origin_M_G = R_GF * translation_F + p_GF;
+  // Rotation s turns about its axis expressed in the frame left by rotations 1..s-1.
+  M3 R_partial = M3::Identity();
+  for (int s = 0; s < 3; ++s) {
+    const TransformAxis& ax = j.axes[s];
+    if (ax.coordinate >= 0) {
+      const V3 w = R_GF * (R_partial * ax.axis.cast<T>()) * ax.function.derivative(q[ax.coordinate]);
+      // Rotating about an axis through M's origin: the ground-origin point moves with -w x o_M.
+      add(ax.coordinate, w, V3(-w.cross(origin_M_G)));
+    }
+    if (ax.coordinate >= 0 || ax.function.value(0.0) != 0.0)
+      R_partial = (R_partial * axis_rotation(ax.axis, axis_value(ax, q))).eval();
+  }
+  for (int s = 3; s < 6; ++s) {
+    const TransformAxis& ax = j.axes[s];
+    if (ax.coordinate < 0) continue;
+    add(ax.coordinate, V3::Zero(), V3(R_GF * ax.axis.cast<T>() * ax.function.derivative(q[ax.coordinate])));
+  }
+}
+
 // Needs ws from forward_kinematics at the same q.
 template <typename T>
 void motion_subspace(const Model& model, const T* q, const KinematicsWorkspace<T>& ws, MotionSubspaceT<T>& S) {
@@ -34,30 +66,21 @@ void motion_subspace(const Model& model, const T* q, const KinematicsWorkspace<T
     const auto& P = ws.body_in_ground[j.parent_body];
     const M3 R_GF = P.rotation * j.parent_offset.rotation.cast<T>();
     const V3 p_GF = P.rotation * j.parent_offset.translation_m.cast<T>() + P.translation_m;
-    V3 translation_F = V3::Zero();
-    for (int s = 3; s < 6; ++s) translation_F += j.axes[s].axis.cast<T>() * axis_value(j.axes[s], q);
-    const V3 origin_M_G = R_GF * translation_F + p_GF;
-    // Rotation s turns about its axis expressed in the frame left by rotations 1..s-1.
-    M3 R_partial = M3::Identity();
-    for (int s = 0; s < 3; ++s) {
-      const TransformAxis& ax = j.axes[s];
-      if (ax.coordinate >= 0) {
-        const V3 w = R_GF * (R_partial * ax.axis.cast<T>()) * ax.function.derivative(q[ax.coordinate]);
-        S.columns.col(ax.coordinate).template head<3>() += w;
-        // Rotating about an axis through M's origin: the ground-origin point moves with -w x o_M.
-        S.columns.col(ax.coordinate).template tail<3>() += -w.cross(origin_M_G);
-      }
-      if (ax.coordinate >= 0 || ax.function.value(0.0) != 0.0)
-        R_partial = (R_partial * axis_rotation(ax.axis, axis_value(ax, q))).eval();
-    }
-    for (int s = 3; s < 6; ++s) {
-      const TransformAxis& ax = j.axes[s];
-      if (ax.coordinate < 0) continue;
-      S.columns.col(ax.coordinate).template tail<3>() +=
-          R_GF * ax.axis.cast<T>() * ax.function.derivative(q[ax.coordinate]);
-    }
+    joint_motion_subspace<T>(j, R_GF, p_GF, q, [&](int c, const V3& w, const V3& v) {
+      S.columns.col(c).template head<3>() += w;
+      S.columns.col(c).template tail<3>() += v;
+    });
   }
 }
+
+// dS/dt at (q, qd), from the pose and S at q (forward_kinematics, motion_subspace on doubles): each
+// column moves with its joint's parent, whose spatial velocity V_P turns it (V_P x S_c, the motion
+// cross product), and with the joint's own functions of q, differentiated on a Jet through that
+// joint alone. Equal to motion_subspace on a Jet carrying qd (to rounding), without carrying the Jet
+// down the whole tree. q_jet: scratch of num_coordinates().
+void motion_subspace_rate(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
+                          const MotionSubspace& S, std::vector<ceres::Jet<double, 1>>& q_jet,
+                          Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate);
 
 // Coordinates that move `body`, root first.
 std::vector<int> ancestor_coordinates(const Model& model, int body);
