@@ -29,8 +29,10 @@ inline Eigen::Vector3d point_velocity_column(const MotionSubspace& S, int c, con
 // One joint's share of the motion subspace: add(c, w, v) receives, for each coordinate c its axes
 // move, the angular (w) and ground-origin linear (v) velocity per unit rate of c, given the pose of
 // its parent frame F in ground (R_GF, p_GF). motion_subspace and motion_subspace_rate share it.
+// Inlined: as a call it cost motion_subspace on doubles (every IK iteration, every dynamics
+// evaluation) 7 % more instructions (callgrind).
 template <typename T, typename Add>
-void joint_motion_subspace(const Joint& j, const Eigen::Matrix<T, 3, 3>& R_GF, const Eigen::Matrix<T, 3, 1>& p_GF, const T* q,
+[[gnu::always_inline]] inline void joint_motion_subspace(const Joint& j, const Eigen::Matrix<T, 3, 3>& R_GF, const Eigen::Matrix<T, 3, 1>& p_GF, const T* q,
                            Add&& add) {
   using M3 = Eigen::Matrix<T, 3, 3>;
   using V3 = Eigen::Matrix<T, 3, 1>;
