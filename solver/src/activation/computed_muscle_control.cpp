@@ -392,14 +392,15 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     x_pred.head(nq) = qd_f - (qd_i - x.head(nq));
     x_pred.segment(nq, nq) = ud_f - (ud_i - x.segment(nq, nq));
     control_ranges_at(t);
-    // Rigid tendons' reachable activations (compliant tendons predict each muscle's force instead).
-    if (!sys.compliant_tendons)
+    if (!sys.compliant_tendons) {
+      // Rigid tendons: the activations reachable by the window's end bound the forces.
       for (int m = 0; m < nm; ++m) {
         const double a = x[sys.activation_index(m)];
         a_lo[m] = thelen_activation_after(model.muscles[m], a, u_min[m], T);
         a_hi[m] = thelen_activation_after(model.muscles[m], a, u_max[m], T);
       }
-    if (sys.compliant_tendons) {
+    } else {
+      // Compliant tendons: each muscle's force is predicted from its state now.
       Eigen::VectorXd controls_now = control_prev;
       muscle_driven_derivatives(sys, t, x, excitation, controls_now, ws, xdot);
       path_start = ws.geometry.length_m;

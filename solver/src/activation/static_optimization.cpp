@@ -7,8 +7,6 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/dynamics/rnea.h"
-#include "cpgait/muscles/millard2012.h"
-#include "cpgait/muscles/schutte1993.h"
 #include "cpgait/muscles/muscle_path.h"
 #include "cpgait/muscles/muscle_model.h"
 
@@ -91,10 +89,9 @@ StaticOptimizationResult static_optimization(const Model& model, const Storage& 
     muscle_path_geometry(model, q.data(), qd.data(), ws, S, geometry);
     for (int m = 0; m < nm; ++m) {
       const Muscle& mu = model.muscles[m];
-      f_opt[m] = !options.use_muscle_physiology ? mu.max_isometric_force_N
-                 : mu.millard  ? millard2012::inextensible_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
-                 : mu.schutte  ? schutte1993::inextensible_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
-                               : muscles::rigid_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m]);
+      f_opt[m] = options.use_muscle_physiology
+                     ? muscles::inextensible_tendon_active_force(mu, 1.0, geometry.length_m[m], geometry.lengthening_speed_m_s[m])
+                     : mu.max_isometric_force_N;
       A.col(m) = geometry.moment_arm_m.row(m).transpose() * f_opt[m];
     }
     actuators.generalized_forces(model, q.data(), ws, S, A.rightCols(na));

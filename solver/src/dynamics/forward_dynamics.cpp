@@ -5,10 +5,10 @@ namespace cpgait {
 void forward_dynamics(const Model& model, const double* q, const double* qd, const double* tau,
                       const std::vector<Vector6d>& external, ForwardDynamicsWorkspace& ws, double* qdd) {
   const int n = model.num_coordinates();
-  forward_kinematics(model, q, ws.kinematics);
-  motion_subspace(model, q, ws.kinematics, ws.S);
+  rnea_kinematics(model, q, qd, ws.dynamics);  // pose, S and dS/dt once, for CRBA and the bias
+  kinematics_values(ws.dynamics, ws.kinematics, ws.S);
   crba(model, ws.kinematics, ws.S, ws.M);
-  rnea(model, q, qd, ws.zero.data(), external, ws.dynamics, ws.bias.data());  // C + G - J^T f
+  rnea_from_kinematics(model, qd, ws.zero.data(), external, ws.dynamics, ws.bias.data());  // C + G - J^T f
   ws.llt.compute(ws.M);
   Eigen::Map<Eigen::VectorXd>(qdd, n) = ws.llt.solve(Eigen::Map<const Eigen::VectorXd>(tau, n) - ws.bias);
 }

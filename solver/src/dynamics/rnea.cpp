@@ -5,7 +5,7 @@ namespace cpgait {
 void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws) {
   forward_kinematics(model, q, ws.kinematics);
   motion_subspace(model, q, ws.kinematics, ws.S);
-  motion_subspace_rate(model, q, qd, ws.kinematics, ws.S, ws.q_jet, ws.S_rate);
+  motion_subspace_rate(model, q, qd, ws.kinematics, ws.S, ws.q_jet, ws.velocity, ws.S_rate);
 }
 
 void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>& kinematics, MotionSubspace& S) {

@@ -31,7 +31,7 @@ bool moves_with_parent_only(const Joint& j) {
 
 void motion_subspace_rate(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                           const MotionSubspace& S, std::vector<ceres::Jet<double, 1>>& q_jet,
-                          Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate) {
+                          std::vector<Eigen::Matrix<double, 6, 1>>& body_velocity, Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate) {
   using Jet = ceres::Jet<double, 1>;
   using M3 = Eigen::Matrix<Jet, 3, 3>;
   using V3 = Eigen::Matrix<Jet, 3, 1>;
@@ -42,30 +42,29 @@ void motion_subspace_rate(const Model& model, const double* q, const double* qd,
   }
   S_rate.setZero();
   // Spatial velocity of each body (angular; linear of the point at the ground origin), root first.
-  Eigen::Matrix<double, 6, Eigen::Dynamic> V = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, model.bodies.size());
+  auto& V = body_velocity;
+  V[0].setZero();
   for (const Joint& j : model.joints) {
-    const Eigen::Vector3d w_P = V.col(j.parent_body).head<3>(), v_P = V.col(j.parent_body).tail<3>();
+    const Eigen::Vector3d w_P = V[j.parent_body].head<3>(), v_P = V[j.parent_body].tail<3>();
     if (moves_with_parent_only(j)) {
       for (int c : j.coordinates) {
         const Eigen::Vector3d w = S.columns.col(c).head<3>(), v = S.columns.col(c).tail<3>();
         S_rate.col(c).head<3>() += w_P.cross(w);
         S_rate.col(c).tail<3>() += w_P.cross(v) + v_P.cross(w);
       }
-      V.col(j.child_body) = V.col(j.parent_body);
-      for (int c : j.coordinates) V.col(j.child_body) += S.columns.col(c) * qd[c];
-      continue;
+    } else {
+      const auto& P = ws.body_in_ground[j.parent_body];
+      // The parent frame's pose held (no derivative): only the joint's own functions vary here.
+      const M3 R_GF = (P.rotation * j.parent_offset.rotation).cast<Jet>();
+      const V3 p_GF = (P.rotation * j.parent_offset.translation_m + P.translation_m).cast<Jet>();
+      joint_motion_subspace<Jet>(j, R_GF, p_GF, q_jet.data(), [&](int c, const V3& w, const V3& v) {
+        const Eigen::Vector3d w_a(w[0].a, w[1].a, w[2].a), v_a(v[0].a, v[1].a, v[2].a);
+        S_rate.col(c).head<3>() += w_P.cross(w_a) + Eigen::Vector3d(w[0].v[0], w[1].v[0], w[2].v[0]);
+        S_rate.col(c).tail<3>() += w_P.cross(v_a) + v_P.cross(w_a) + Eigen::Vector3d(v[0].v[0], v[1].v[0], v[2].v[0]);
+      });
     }
-    const auto& P = ws.body_in_ground[j.parent_body];
-    // The parent frame's pose held (no derivative): only the joint's own functions vary here.
-    const M3 R_GF = (P.rotation * j.parent_offset.rotation).cast<Jet>();
-    const V3 p_GF = (P.rotation * j.parent_offset.translation_m + P.translation_m).cast<Jet>();
-    joint_motion_subspace<Jet>(j, R_GF, p_GF, q_jet.data(), [&](int c, const V3& w, const V3& v) {
-      const Eigen::Vector3d w_a(w[0].a, w[1].a, w[2].a), v_a(v[0].a, v[1].a, v[2].a);
-      S_rate.col(c).head<3>() += w_P.cross(w_a) + Eigen::Vector3d(w[0].v[0], w[1].v[0], w[2].v[0]);
-      S_rate.col(c).tail<3>() += w_P.cross(v_a) + v_P.cross(w_a) + Eigen::Vector3d(v[0].v[0], v[1].v[0], v[2].v[0]);
-    });
-    V.col(j.child_body) = V.col(j.parent_body);
-    for (int c : j.coordinates) V.col(j.child_body) += S.columns.col(c) * qd[c];
+    V[j.child_body] = V[j.parent_body];
+    for (int c : j.coordinates) V[j.child_body] += S.columns.col(c) * qd[c];
   }
 }
 

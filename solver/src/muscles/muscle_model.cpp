@@ -31,6 +31,12 @@ double rigid_tendon_active_force(const Muscle& m, double a, double L, double V) 
   return thelen2003::rigid_tendon_active_force(m, a, L, V);
 }
 
+double inextensible_tendon_active_force(const Muscle& m, double a, double L, double V) {
+  if (m.millard) return millard2012::inextensible_tendon_active_force(m, a, L, V);
+  if (m.schutte) return schutte1993::inextensible_tendon_active_force(m, a, L, V);
+  return rigid_tendon_active_force(m, a, L, V);
+}
+
 double rigid_tendon_fiber_length(const Muscle& m, double L) {
   if (m.rigid_tendon) return rigid_tendon_muscle::fiber_length(m, L);
   if (m.schutte) return schutte1993::rigid_tendon_fiber_length(m, L);

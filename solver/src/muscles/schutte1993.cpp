@@ -130,12 +130,12 @@ double inextensible_tendon_active_force(const Muscle& m, double activation, doub
 }
 
 double min_fiber_length(const Muscle& m) {
-  return std::max(m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad), 0.01 * m.optimal_fiber_length_m);
+  return std::max(m.optimal_fiber_length_m * m.sin_pennation_at_optimal, 0.01 * m.optimal_fiber_length_m);
 }
 
 double rigid_tendon_fiber_length(const Muscle& m, double L) {
   const double along = std::max(L - m.tendon_slack_length_m, 0.0);
-  const double width = m.optimal_fiber_length_m * std::sin(m.pennation_angle_at_optimal_rad);
+  const double width = m.optimal_fiber_length_m * m.sin_pennation_at_optimal;
   return std::max(std::sqrt(along * along + width * width), min_fiber_length(m));
 }
 

@@ -79,10 +79,11 @@ void motion_subspace(const Model& model, const T* q, const KinematicsWorkspace<T
 // column moves with its joint's parent, whose spatial velocity V_P turns it (V_P x S_c, the motion
 // cross product), and with the joint's own functions of q, differentiated on a Jet through that
 // joint alone. Equal to motion_subspace on a Jet carrying qd (to rounding), without carrying the Jet
-// down the whole tree. q_jet: scratch of num_coordinates().
+// down the whole tree. q_jet: scratch of num_coordinates(); body_velocity (one per body) receives each
+// body's spatial velocity on the way.
 void motion_subspace_rate(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                           const MotionSubspace& S, std::vector<ceres::Jet<double, 1>>& q_jet,
-                          Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate);
+                          std::vector<Eigen::Matrix<double, 6, 1>>& body_velocity, Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate);
 
 // Coordinates that move `body`, root first.
 std::vector<int> ancestor_coordinates(const Model& model, int body);

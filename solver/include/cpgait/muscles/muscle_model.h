@@ -18,6 +18,10 @@ bool has_rigid_tendon(const Muscle& m);
 RigidTendonForces rigid_tendon_forces(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 double rigid_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 double rigid_tendon_fiber_length(const Muscle& m, double path_length_m);
+// Static optimization's force at this activation, as OpenSim's calcInextensibleTendonActiveFiberForce
+// gives it for the muscle's own model (Millard's and the deprecated muscles' have their own; the
+// others' is the rigid tendon's active force).
+double inextensible_tendon_active_force(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 
 // Compliant tendon with the fibre length a state. velocity_guess_m_s: a nearby evaluation's fibre
 // velocity, where a model that iterates for it starts (Millard's damped fibre); NaN: none.
