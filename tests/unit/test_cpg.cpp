@@ -312,6 +312,19 @@ TEST(CpgPhase, ReadFromTheRhythmNeuronsAtAnySpeed) {
 
   const CpgPhaseTable table = cpg_phase_table(m);
   EXPECT_NEAR(cpg_phase(table, m.start), 0.3, 1e-9);
+  {
+    // The table steps the rhythm neurons alone: the same states as the whole network's, stepped
+    // as the table samples them (400 samples of 10 steps).
+    MatsuokaState whole = m.start;
+    MatsuokaScratch scratch;
+    double worst_state = 0;
+    for (int k = 0; k < table.states.rows(); ++k) {
+      const double expected[4] = {whole.x[0], whole.x[1], whole.f[0], whole.f[1]};
+      for (int c = 0; c < 4; ++c) worst_state = std::max(worst_state, std::abs(table.states(k, c) - expected[c] * table.inv_range[c]));
+      for (int i = 0; i < 10; ++i) matsuoka_step(m.network, whole, m.cycle_s / (table.states.rows() * 10), Eigen::VectorXd(), scratch);
+    }
+    EXPECT_LT(worst_state, 1e-12);
+  }
   double worst = 0;
   for (const double speed : {1.0, 1.3}) {
     m.speed = speed;

@@ -20,15 +20,22 @@ CpgPhaseTable cpg_phase_table(const CpgModel& m, int samples) {
   t.phase_at_start = m.phase_at_start;
   const int R = t.rhythm_neurons, substeps = 10;
   t.states.resize(samples, 2 * R);
-  // The network in seconds at speed 1: its period is the gait cycle.
-  MatsuokaState st = m.start;
+  // The network in seconds at speed 1: its period is the gait cycle. The rhythm neurons alone:
+  // no later neuron inhibits them, so the pattern layer cannot change their course.
+  MatsuokaNetwork rhythm;
+  rhythm.tau_r_s = m.network.tau_r_s.head(R);
+  rhythm.tau_a_s = m.network.tau_a_s.head(R);
+  rhythm.b = m.network.b.head(R);
+  rhythm.s = m.network.s.head(R);
+  rhythm.a = m.network.a.topLeftCorner(R, R);
+  MatsuokaState st{m.start.x.head(R), m.start.f.head(R)};
   MatsuokaScratch scratch;
-  matsuoka_prepare(m.network, scratch);
+  matsuoka_prepare(rhythm, scratch);
   const Eigen::VectorXd none;
   const double dt = m.cycle_s / (samples * substeps);
   for (int k = 0; k < samples; ++k) {
-    t.states.row(k) << st.x.head(R).transpose(), st.f.head(R).transpose();
-    for (int i = 0; i < substeps; ++i) matsuoka_step(m.network, st, dt, none, scratch);
+    t.states.row(k) << st.x.transpose(), st.f.transpose();
+    for (int i = 0; i < substeps; ++i) matsuoka_step(rhythm, st, dt, none, scratch);
   }
   const Eigen::VectorXd range = t.states.colwise().maxCoeff() - t.states.colwise().minCoeff();
   t.inv_range = range.unaryExpr([](double r) { return r > 1e-12 ? 1.0 / r : 0.0; });
