@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include <limits>
 #include <random>
 
 #include "cpgait/activation/static_optimization.h"
@@ -71,6 +72,24 @@ TEST(DualNewton, SatisfiesKktOnRandomProblems) {
       }
     }
   }
+}
+
+// A warm start that cannot converge (here multipliers that are not even finite; in CMC, multipliers
+// whose rounding floor lies above the tolerance) is retried from the cold start, which converges.
+TEST(DualNewton, FailedWarmStartRetriesCold) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto random = [&](int rows, int cols) { return Eigen::MatrixXd::NullaryExpr(rows, cols, [&] { return u(rng); }).eval(); };
+  const int m = 6, n = 30;
+  const Eigen::MatrixXd A = random(m, n);
+  const Eigen::VectorXd b = A * (random(n, 1).cwiseAbs() * 0.5);
+  const Eigen::VectorXd lo = Eigen::VectorXd::Zero(n), hi = Eigen::VectorXd::Ones(n);
+  Eigen::VectorXd lambda = Eigen::VectorXd::Constant(m, std::numeric_limits<double>::quiet_NaN()), x;
+  DualNewtonOptions o;
+  const DualNewtonSummary s = minimize_power_sum(A, b, lo, hi, o, lambda, x);
+  ASSERT_TRUE(s.converged) << "residual " << s.equality_residual;
+  EXPECT_GT(s.iterations, o.max_iterations);  // the warm start's iterations are counted too
+  expect_kkt(A, b, lo, hi, 2.0, lambda, x);
 }
 
 namespace {
