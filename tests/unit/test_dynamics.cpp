@@ -617,3 +617,64 @@ TEST(CoordinateCouplers, ForwardDynamicsConservesEnergyOnTheConstraint) {
   EXPECT_LT(worst_coupling, 1e-8);  // measured 2.5e-9 rad
   EXPECT_LT(worst_energy, 1e-5);    // measured 5e-7 J
 }
+
+// An integrator's stages skip the moment-arm matrix (form_moment_arms = false): the muscles'
+// tensions go to the skeleton as body forces along their paths. The derivative must be the one
+// R^T F gives, on every reference model with muscles: wrapping surfaces, moving and conditional
+// points, couplers, rigid and compliant tendons.
+TEST(MuscleDrivenDynamics, PathTensionsAsBodyForcesEqualMomentArmsOnEveryReferenceModel) {
+  const std::string root = refdata::shared_path("opensim");
+  REQUIRE_REFERENCE(root);
+  std::mt19937 rng(21);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  int models = 0, with_wraps = 0, with_moving_points = 0;
+  double worst = 0;
+  std::vector<std::filesystem::path> files{"walker"};
+  for (const auto& e : std::filesystem::recursive_directory_iterator(root))
+    if (e.path().extension() == ".osim") files.push_back(e.path());
+  for (const auto& e : files) {
+    const Model m = e == "walker" ? walker() : read_osim(e.string()).model;
+    if (m.muscles.empty()) continue;
+    bool moving = false;
+    for (const auto& mu : m.muscles)
+      for (const auto& p : mu.path) moving = moving || p.kind == PathPoint::Kind::kMoving;
+    for (const bool compliant : {false, true}) {
+      MuscleDrivenSystem sys;
+      sys.model = &m;
+      sys.compliant_tendons = compliant;
+      MuscleDrivenWorkspace ws(sys);
+      const int nq = m.num_coordinates(), nm = sys.num_muscles();
+      Eigen::VectorXd x(sys.state_size());
+      for (int c = 0; c < nq; ++c) {
+        x[c] = m.coordinates[c].default_value + 0.1 * noise(rng);
+        x[nq + c] = noise(rng);
+      }
+      for (int k = 0; k < nm; ++k) {
+        x[sys.activation_index(k)] = 0.3;
+        if (compliant) x[sys.fiber_length_index(k)] = m.muscles[k].optimal_fiber_length_m;
+      }
+      const Eigen::VectorXd excitation = Eigen::VectorXd::Constant(nm, 0.5), none;
+      Eigen::VectorXd with_arms(x.size()), with_forces(x.size());
+      muscle_driven_derivatives(sys, 0.0, x, excitation, none, ws, with_arms);
+      const Eigen::VectorXd tau_arms = ws.tau;
+      ws.form_moment_arms = false;
+      muscle_driven_derivatives(sys, 0.0, x, excitation, none, ws, with_forces);
+      if (!with_arms.allFinite()) continue;
+      const double scale = 1.0 + tau_arms.cwiseAbs().maxCoeff();
+      const double d = (ws.tau - tau_arms).cwiseAbs().maxCoeff() / scale;
+      worst = std::max(worst, d);
+      EXPECT_LT(d, 1e-12) << e << (compliant ? " compliant" : " rigid");
+      EXPECT_LT((with_forces - with_arms).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + with_arms.cwiseAbs().maxCoeff())) << e;
+      if (!compliant) {
+        ++models;
+        with_wraps += !m.wrap_objects.empty();
+        with_moving_points += moving;
+      }
+    }
+  }
+  std::printf("[info] %d models with muscles (%d with wrapping, %d with moving points): worst |tau difference| / (1 + |tau|) %.1e\n",
+              models, with_wraps, with_moving_points, worst);
+  EXPECT_GE(models, 10);
+  EXPECT_GT(with_wraps, 0);
+  EXPECT_GT(with_moving_points, 0);
+}

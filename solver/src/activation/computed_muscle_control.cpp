@@ -358,9 +358,28 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   // derivative): the window's first record and integration step then need none of their own.
   bool start_fresh = false;
   const bool step_controls = std::any_of(steps.begin() + nm, steps.end(), [](bool b) { return b; });
-  auto record = [&](double time, const Eigen::VectorXd& state) {
+  // Evaluations that neither form the Jacobian nor feed the window's solve skip the moment-arm
+  // matrix (MuscleDrivenWorkspace::form_moment_arms): the integrator's stages and the recording.
+  auto stage_derivatives = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+    ws.form_moment_arms = false;
+    muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, dy);
+    ws.form_moment_arms = true;
+  };
+  // Records between integration steps take their muscle forces from the step's two ends (linear in
+  // time, as their states), once the evaluation that begins the next step has them at its end:
+  // pending holds those records (index, share of the step's end). An evaluation per record was a
+  // sixth of all evaluations.
+  std::vector<std::pair<std::size_t, double>> pending;
+  Eigen::VectorXd force_at_step_start = Eigen::VectorXd::Zero(nm);
+  auto muscle_forces_at_x = [&](const Eigen::VectorXd& force) {  // ws's evaluation is at x
+    for (const auto& [i, share] : pending) rec_fm[i] = (1.0 - share) * force_at_step_start + share * force;
+    pending.clear();
+    force_at_step_start = force;
+  };
+  auto record = [&](double time, const Eigen::VectorXd& state) {  // state: x
     // Forces at the recorded state: one evaluation with the controls in force at that time.
-    if (!start_fresh) muscle_driven_derivatives(sys, time, state, excitation, control_now, ws, xdot);
+    if (!start_fresh) stage_derivatives(time, state, xdot);
+    muscle_forces_at_x(ws.muscle_force_N);
     r.time_s.push_back(time);
     rec_x.push_back(state);
     rec_fm.push_back(ws.muscle_force_N);
@@ -487,7 +506,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
     auto f = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
       ++evaluations_since_prepare;
       controls_at(time);
-      muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, dy);
+      stage_derivatives(time, y, dy);
     };
     // Without contact spheres the Jacobian is formed at the window's start and again after a step
     // that had to be retried (ROS2 is a W-method: any W keeps its order, but a stale one loses the
@@ -507,14 +526,16 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         f0 = xdot;
         muscle_driven_jacobian(sys, y, excitation, ws, jac, f0);
         form_jacobian = false;
+        muscle_forces_at_x(ws.muscle_force_N);
         return;
       }
       if (form_jacobian || retried || sys.contacts) {
         muscle_driven_prepare(sys, time, y, excitation, control_now, ws, jac, f0);
       } else {
-        muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, f0);
+        stage_derivatives(time, y, f0);
       }
       form_jacobian = false;
+      muscle_forces_at_x(ws.muscle_force_N);
     };
     auto w_solve = [&](double gamma_h, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) {
       muscle_driven_w_solve(sys, jac, gamma_h, rhs, k);
@@ -536,8 +557,15 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         x_out = xa + (tb_s > ta_s ? (to - ta_s) / (tb_s - ta_s) : 1.0) * (xb - xa);
         if (coupled) assemble_coordinate_constraints(model, x_out.data(), x_out.data() + nq);
         const double share = double(next_out) / n_out;
-        for (int j = 0; j < na; ++j) control_now[j] = steps[nm + j] ? control_new[j] : control_prev[j] + share * (control_new[j] - control_prev[j]);
-        record(to, x_out);
+        r.time_s.push_back(to);
+        rec_x.push_back(x_out);
+        Eigen::VectorXd actuator_force(na);
+        for (int j = 0; j < na; ++j)
+          actuator_force[j] = (steps[nm + j] ? control_new[j] : control_prev[j] + share * (control_new[j] - control_prev[j])) *
+                              sys.actuators->spec(j).optimal_force;
+        rec_fa.push_back(actuator_force);
+        rec_fm.push_back(force_at_step_start);  // completed by muscle_forces_at_x
+        pending.emplace_back(rec_fm.size() - 1, tb_s > ta_s ? (to - ta_s) / (tb_s - ta_s) : 1.0);
       }
     };
     const WStepDone step_done = dense && output_phase ? WStepDone(record_between) : WStepDone();

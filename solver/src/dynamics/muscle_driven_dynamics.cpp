@@ -13,6 +13,7 @@ namespace cpgait {
 MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
     : fd(*sys.model), geometry(*sys.model), actuator_columns(sys.num_coordinates(), sys.num_actuators()),
       external(sys.model->bodies.size(), Vector6d::Zero()), tau(sys.num_coordinates()),
+      paths(sys.num_muscles()), muscle_wrench(sys.model->bodies.size(), Vector6d::Zero()),
       muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
       active_force_N(Eigen::VectorXd::Zero(sys.num_muscles())),
       actuator_force(sys.num_actuators()) {
@@ -81,7 +82,15 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   // Muscles (rigid tendon) and actuators.
   ws.tau.setZero();
   if (nm > 0) {
-    muscle_path_geometry(model, q, u, fd.kinematics, fd.S, ws.geometry);
+    if (ws.form_moment_arms) {
+      muscle_path_geometry(model, q, u, fd.kinematics, fd.S, ws.geometry);
+    } else {
+      for (int m = 0; m < nm; ++m) {
+        current_path(model, model.muscles[m], q, fd.kinematics, ws.paths[m]);
+        ws.geometry.length_m[m] = current_path_length(ws.paths[m]);
+        ws.geometry.lengthening_speed_m_s[m] = current_path_lengthening_speed(ws.paths[m], q, u, fd.kinematics, fd.dynamics.velocity);
+      }
+    }
     for (int m = 0; m < nm; ++m) {
       const Muscle& mu = model.muscles[m];
       const double a = x[sys.activation_index(m)];
@@ -106,7 +115,13 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       }
       xdot[sys.activation_index(m)] = thelen_activation_rate(mu, excitation[m], a);
     }
-    ws.tau.noalias() += ws.geometry.moment_arm_m.transpose() * ws.muscle_force_N;
+    if (ws.form_moment_arms) {
+      ws.tau.noalias() += ws.geometry.moment_arm_m.transpose() * ws.muscle_force_N;
+    } else {
+      for (auto& w : ws.muscle_wrench) w.setZero();
+      for (int m = 0; m < nm; ++m) add_path_tension(ws.paths[m], q, fd.kinematics, ws.muscle_force_N[m], ws.muscle_wrench, ws.tau.data());
+      add_generalized_forces_of_wrenches(model, fd.S, ws.muscle_wrench, ws.tau.data());
+    }
   }
   if (na > 0) {
     sys.actuators->generalized_forces(model, q, fd.kinematics, fd.S, ws.actuator_columns);
@@ -145,7 +160,10 @@ void add_moment_arm_product(const MuscleDrivenJacobian& jac, const Eigen::Vector
 void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
                            const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
                            MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot) {
+  const bool form = ws.form_moment_arms;
+  ws.form_moment_arms = true;
   muscle_driven_derivatives(sys, t, x, excitation, control, ws, xdot);
+  ws.form_moment_arms = form;
   muscle_driven_jacobian(sys, x, excitation, ws, jac, xdot);
 }
 

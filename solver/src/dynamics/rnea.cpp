@@ -1,5 +1,7 @@
 #include "cpgait/dynamics/rnea.h"
 
+#include <algorithm>
+
 namespace cpgait {
 
 void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws) {
@@ -51,16 +53,20 @@ void rnea_from_kinematics(const Model& model, const double* qd, const double* qd
     f << N + c.cross(F), F;
     if (!external.empty()) f -= external[j.child_body];
   }
-  // Backward sweep: each joint carries the wrench of its whole subtree.
+  std::fill(tau, tau + model.num_coordinates(), 0.0);
+  add_generalized_forces_of_wrenches(model, ws.S, ws.force, tau);
+}
+
+void add_generalized_forces_of_wrenches(const Model& model, const MotionSubspace& S, std::vector<Vector6d>& wrench, double* tau) {
   for (int k = static_cast<int>(model.joints.size()) - 1; k >= 0; --k) {
     const Joint& j = model.joints[k];
-    const Vector6d& f = ws.force[j.child_body];
+    const Vector6d& f = wrench[j.child_body];
     for (int c : j.coordinates) {
       double t = 0;
-      for (int r = 0; r < 6; ++r) t += ws.S.columns(r, c) * f[r];
-      tau[c] = t;
+      for (int r = 0; r < 6; ++r) t += S.columns(r, c) * f[r];
+      tau[c] += t;
     }
-    if (j.parent_body > 0) ws.force[j.parent_body] += f;
+    if (j.parent_body > 0) wrench[j.parent_body] += f;
   }
 }
 

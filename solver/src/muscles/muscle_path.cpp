@@ -82,6 +82,64 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
 }
 
 namespace {
+bool moves_on_its_body(const PathVertex<double>& p) { return p.point && p.point->kind == PathPoint::Kind::kMoving; }
+}  // namespace
+
+double current_path_lengthening_speed(const std::vector<PathVertex<double>>& path, const double* q, const double* qd,
+                                      const KinematicsWorkspace<double>& ws,
+                                      const std::vector<SpatialVector>& body_velocity) {
+  auto velocity = [&](const PathVertex<double>& p) -> Eigen::Vector3d {
+    const SpatialVector& V = body_velocity[p.body];
+    Eigen::Vector3d v = V.tail<3>() + V.head<3>().cross(p.x_ground);
+    if (p.point && p.point->kind == PathPoint::Kind::kMoving) {
+      const auto& R = ws.body_in_ground[p.body].rotation;
+      for (int a = 0; a < 3; ++a)
+        if (const int c = p.point->moving_coordinates[a]; c >= 0) v += R.col(a) * (p.point->moving_functions[a].derivative(q[c]) * qd[c]);
+    }
+    return v;
+  };
+  double speed = 0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const PathVertex<double>& u = path[i];
+    const PathVertex<double>& v = path[i + 1];
+    if (u.body == v.body && !moves_on_its_body(u) && !moves_on_its_body(v)) continue;  // a rigid segment: no stretch
+    if (u.wrap >= 0 && v.wrap == u.wrap) continue;
+    const Eigen::Vector3d d = v.x_ground - u.x_ground;
+    const double n = d.norm();
+    if (n == 0) continue;
+    speed += d.dot(velocity(v) - velocity(u)) / n;
+  }
+  return speed;
+}
+
+void add_path_tension(const std::vector<PathVertex<double>>& path, const double* q, const KinematicsWorkspace<double>& ws,
+                      double tension_N, std::vector<SpatialVector>& body_wrench,
+                      double* tau) {
+  auto apply = [&](const PathVertex<double>& p, const Eigen::Vector3d& f) {
+    body_wrench[p.body].head<3>() += p.x_ground.cross(f);
+    body_wrench[p.body].tail<3>() += f;
+    if (p.point && p.point->kind == PathPoint::Kind::kMoving) {
+      const auto& R = ws.body_in_ground[p.body].rotation;
+      for (int a = 0; a < 3; ++a)
+        if (const int c = p.point->moving_coordinates[a]; c >= 0) tau[c] += f.dot(R.col(a)) * p.point->moving_functions[a].derivative(q[c]);
+    }
+  };
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const PathVertex<double>& u = path[i];
+    const PathVertex<double>& v = path[i + 1];
+    // Equal and opposite on one body along one line: nothing.
+    if (u.body == v.body && !moves_on_its_body(u) && !moves_on_its_body(v)) continue;
+    if (u.wrap >= 0 && v.wrap == u.wrap) continue;
+    const Eigen::Vector3d d = v.x_ground - u.x_ground;
+    const double n = d.norm();
+    if (n == 0) continue;
+    const Eigen::Vector3d f = (tension_N / n) * d;  // pulls u towards v, v towards u
+    apply(u, f);
+    apply(v, -f);
+  }
+}
+
+namespace {
 
 template <typename PathOwner>
 void owner_path_geometry(const Model& model, const PathOwner& owner, const double* q, const double* qd,

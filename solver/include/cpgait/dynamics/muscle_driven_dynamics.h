@@ -57,6 +57,13 @@ struct MuscleDrivenWorkspace {
   std::vector<int> free;
   Eigen::MatrixXd G, M_free;
   std::vector<char> rigid_tendon;  // per muscle: its own model's tendon is inextensible
+  // False: evaluations leave geometry.moment_arm_m as it was and apply the muscles' tensions through
+  // their paths' body forces instead (muscle_path.h: the same generalized forces to rounding), for
+  // an integrator's stages that nobody reads the moment arms of. The Jacobian needs them: prepare
+  // always forms them. Default true.
+  bool form_moment_arms = true;
+  std::vector<std::vector<PathVertex<double>>> paths;  // per muscle, when form_moment_arms is false
+  std::vector<Vector6d> muscle_wrench;                  // per body: the muscles' tensions
   // Outputs of the last evaluation.
   double time_s = 0;
   Eigen::VectorXd muscle_force_N;      // along the tendon

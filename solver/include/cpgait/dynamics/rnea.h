@@ -45,4 +45,9 @@ void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>&
 void rnea_from_kinematics(const Model& model, const double* qd, const double* qdd, const std::vector<Vector6d>& external,
                           DynamicsWorkspace& ws, double* tau);
 
+// tau += J^T f: the generalized forces of spatial forces applied to bodies (wrench[b] on body b, in
+// ground at the ground origin), by the backward sweep: each joint carries its subtree's sum.
+// `wrench` is consumed (each entry becomes its subtree's sum).
+void add_generalized_forces_of_wrenches(const Model& model, const MotionSubspace& S, std::vector<Vector6d>& wrench, double* tau);
+
 }  // namespace cpgait
