@@ -297,10 +297,11 @@ void add_cmc_command(CLI::App& app) {
   cmc->add_option("--loads", c->loads, "ExternalLoads .xml (measured GRF)")->check(CLI::ExistingFile);
   cmc->add_option("--grf", c->grf, "GRF data .mot (default: the datafile the loads name)")->check(CLI::ExistingFile);
   cmc->add_option("--contacts", c->contacts, "contact spheres JSON (cpgait.contact/1) used without --loads")->check(CLI::ExistingFile);
-  cmc->add_option("--integrator", c->options.integrator, "rosenbrock (ROS2, stiff muscles implicit) or dopri (explicit 5(4))")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, CmcIntegrator>{{"rosenbrock", CmcIntegrator::kRosenbrockW},
-                                                                                {"dopri", CmcIntegrator::kDormandPrince}}))
-      ->capture_default_str();
+  cmc->add_option("--integrator", c->options.integrator,
+                  "ros34pw2 (third-order Rosenbrock-W, stiff muscles implicit; the default), rosenbrock (ROS2, second order) or dopri (explicit 5(4))")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, CmcIntegrator>{{"ros34pw2", CmcIntegrator::kRos34pw2},
+                                                                                {"rosenbrock", CmcIntegrator::kRosenbrockW},
+                                                                                {"dopri", CmcIntegrator::kDormandPrince}}));
   cmc->add_flag("--refresh-actuators", c->options.refresh_actuators,
                 "also re-solve residual and reserve actuators every output interval (default: once per window, as OpenSim)");
   cmc->add_flag("!--rigid-tendons", c->options.compliant_tendons, "rigid tendons (default: compliant, as OpenSim's Thelen2003Muscle)");
@@ -308,7 +309,8 @@ void add_cmc_command(CLI::App& app) {
   cmc->add_option("--time", *ctime, "first and last time, seconds")->expected(2);
   cmc->add_option("--window", c->options.window_s, "CMC time window, s")->check(CLI::Range(1e-3, 0.5))->capture_default_str();
   cmc->add_option("--cutoff", c->options.lowpass_cutoff_hz, "low-pass cutoff for the desired kinematics, Hz (negative: none)")->capture_default_str();
-  cmc->add_option("--tolerance", c->options.integrator_tolerance, "integrator error tolerance")->check(CLI::Range(1e-10, 1e-2))->capture_default_str();
+  cmc->add_option("--tolerance", c->options.integrator_tolerance, "integrator error tolerance (default: 2e-4 for ros34pw2, 1e-3 for the others)")
+      ->check(CLI::Range(1e-10, 1e-2));
   cmc->add_option("--name", c->name, "output file prefix")->capture_default_str();
   cmc->add_option("-o,--output", c->out_dir, "output folder")->required();
   cmc->callback([c, ctime] {

@@ -42,4 +42,11 @@ DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepar
                                     double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
                                     const WStepDone& step_done = {});
 
+// ROS34PW2 (Rang & Angermann 2005): four stages, order three with any J (a W-method), L-stable with
+// the exact one, and an embedded second-order estimate: its steps grow as tol^(1/3) where ROS2's
+// grow as tol^(1/2). Same interface; each step costs four evaluations and solves.
+DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
+                                        double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
+                                        const WStepDone& step_done = {});
+
 }  // namespace cpgait
