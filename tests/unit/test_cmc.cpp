@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <tuple>
 
 #include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/capture/cmc_setup.h"
@@ -60,21 +61,46 @@ TEST(DormandPrince, StiffDecayStaysStableAndSaysHowManySteps) {
   EXPECT_GT(s.accepted_steps, 2000);  // ~1 s / 3.3e-4 s
 }
 
-TEST(RosenbrockW, SecondOrderAndStableOnStiffModes) {
-  // y1' = -1e4 (y1 - y2), y2' = -y2: after a 1e-4 s transient y1 follows y2 = exp(-t). With the
-  // exact Jacobian the steps are set by accuracy, not by the stiff time constant.
-  const double lambda = -1e4;
-  const OdeFunction f = [&](double, const Eigen::VectorXd& x, Eigen::VectorXd& dx) {
+namespace {
+// y1' = lambda (y1 - y2), y2' = -y2 (lambda = -1e4): after a 1e-4 s transient y1 follows
+// y2 = exp(-t), with its exact Jacobian for the W-methods.
+struct StiffPair {
+  static constexpr double lambda = -1e4;
+  OdeFunction f = [](double, const Eigen::VectorXd& x, Eigen::VectorXd& dx) {
     dx.resize(2);
     dx[0] = lambda * (x[0] - x[1]);
     dx[1] = -x[1];
   };
-  const WPrepare prepare = [&](double t, const Eigen::VectorXd& x, Eigen::VectorXd& f0) { f(t, x, f0); };
-  const WSolve solve = [&](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) {
+  WPrepare prepare = [this](double t, const Eigen::VectorXd& x, Eigen::VectorXd& f0) { f(t, x, f0); };
+  WSolve solve = [](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) {
     k.resize(2);
     k[1] = rhs[1] / (1.0 + gh);                                // row 2: (1 + gh) k2 = r2
     k[0] = (rhs[0] - gh * lambda * k[1]) / (1.0 - gh * lambda);  // row 1: (1 - gh l) k1 + gh l k2 = r1
   };
+};
+
+// A W-method's error at t = 1 from y(0) = 1 with fixed 0.1 s steps over that with 0.05 s: 2^order.
+template <typename Integrate>
+double halving_error_ratio(Integrate integrate, const OdeFunction& g, const WSolve& solve, double exact) {
+  const WPrepare prepare = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) { g(t, y, f0); };
+  double err[2];
+  for (int i = 0; i < 2; ++i) {
+    RosenbrockOptions fixed;
+    fixed.relative_tolerance = fixed.absolute_tolerance = 1e6;  // no step control: fixed steps
+    fixed.initial_step_s = fixed.max_step_s = 0.1 / (1 << i);
+    Eigen::VectorXd y(1);
+    y << 1.0;
+    integrate(g, prepare, solve, 0.0, 1.0, y, fixed, WStepDone());
+    err[i] = std::abs(y[0] - exact);
+  }
+  return err[0] / err[1];
+}
+}  // namespace
+
+TEST(RosenbrockW, SecondOrderAndStableOnStiffModes) {
+  // With the exact Jacobian the steps are set by accuracy, not by the stiff time constant.
+  const StiffPair pair;
+  const auto& [f, prepare, solve] = std::tie(pair.f, pair.prepare, pair.solve);
   Eigen::VectorXd x(2);
   x << 0.0, 1.0;
   RosenbrockOptions o;
@@ -111,19 +137,8 @@ TEST(RosenbrockW, SecondOrderAndStableOnStiffModes) {
   // Order two on a non-stiff problem even with a crude Jacobian (zero): halving the step quarters
   // the error.
   const OdeFunction g = [](double, const Eigen::VectorXd& y, Eigen::VectorXd& dy) { dy = -y; };
-  const WPrepare gp = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) { g(t, y, f0); };
   const WSolve zero_j = [](double, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) { k = rhs; };
-  double err[2];
-  for (int i = 0; i < 2; ++i) {
-    RosenbrockOptions fixed;
-    fixed.relative_tolerance = fixed.absolute_tolerance = 1e6;  // no step control: fixed steps
-    fixed.initial_step_s = fixed.max_step_s = 0.1 / (1 << i);
-    Eigen::VectorXd y(1);
-    y << 1.0;
-    integrate_ros2(g, gp, zero_j, 0.0, 1.0, y, fixed);
-    err[i] = std::abs(y[0] - std::exp(-1.0));
-  }
-  EXPECT_NEAR(err[0] / err[1], 4.0, 0.6);
+  EXPECT_NEAR(halving_error_ratio(integrate_ros2, g, zero_j, std::exp(-1.0)), 4.0, 0.6);
 }
 
 // CMC's default integrator (ComputedMuscleControlOptions). Measured against ROS2 at its 1e-3, with
@@ -141,20 +156,11 @@ TEST(RosenbrockW, SecondOrderAndStableOnStiffModes) {
 //     ROS34PW2 1e-5 (the floor: ROS2 and ROS34PW2 at 1e-5 disagree by)   0.58 deg, 0.123,  7.4 deg
 // (subject01's mtp is chaotic under CMC: no two tolerances agree there to better than degrees.)
 TEST(RosenbrockW, Ros34pw2ThirdOrderWithAnyJacobianAndStableOnStiffModes) {
-  // The stiff pair above: with the exact Jacobian, accurate and in fewer steps than ROS2 at the
-  // same tolerance (its error estimate is of second order, ROS2's of first).
-  const double lambda = -1e4;
-  const OdeFunction f = [&](double, const Eigen::VectorXd& x, Eigen::VectorXd& dx) {
-    dx.resize(2);
-    dx[0] = lambda * (x[0] - x[1]);
-    dx[1] = -x[1];
-  };
-  const WPrepare prepare = [&](double t, const Eigen::VectorXd& x, Eigen::VectorXd& f0) { f(t, x, f0); };
-  const WSolve solve = [&](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) {
-    k.resize(2);
-    k[1] = rhs[1] / (1.0 + gh);
-    k[0] = (rhs[0] - gh * lambda * k[1]) / (1.0 - gh * lambda);
-  };
+  // The stiff pair: with the exact Jacobian, accurate and in fewer steps than ROS2 at the same
+  // tolerance (its error estimate is of second order, ROS2's of first).
+  const StiffPair pair;
+  const auto& [f, prepare, solve] = std::tie(pair.f, pair.prepare, pair.solve);
+  const double lambda = StiffPair::lambda;
   RosenbrockOptions o;
   o.relative_tolerance = o.absolute_tolerance = 1e-6;
   o.max_step_s = 1.0;
@@ -181,21 +187,10 @@ TEST(RosenbrockW, Ros34pw2ThirdOrderWithAnyJacobianAndStableOnStiffModes) {
   // Order three on a non-autonomous problem whatever the Jacobian (zero, or half the true one):
   // halving the step divides the error by eight. y' = sin t - y, y(0) = 1.
   const OdeFunction g = [](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) { dy = -y + Eigen::VectorXd::Constant(1, std::sin(t)); };
-  const WPrepare gp = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& f0) { g(t, y, f0); };
   const double exact = 0.5 * (std::sin(1.0) - std::cos(1.0)) + 1.5 * std::exp(-1.0);
   for (const double j : {0.0, -0.5}) {
     const WSolve approximate = [j](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) { k = rhs / (1.0 - gh * j); };
-    double err[2];
-    for (int i = 0; i < 2; ++i) {
-      RosenbrockOptions fixed;
-      fixed.relative_tolerance = fixed.absolute_tolerance = 1e6;  // no step control: fixed steps
-      fixed.initial_step_s = fixed.max_step_s = 0.1 / (1 << i);
-      Eigen::VectorXd y(1);
-      y << 1.0;
-      integrate_ros34pw2(g, gp, approximate, 0.0, 1.0, y, fixed);
-      err[i] = std::abs(y[0] - exact);
-    }
-    EXPECT_NEAR(err[0] / err[1], 8.0, 1.5) << "J = " << j;
+    EXPECT_NEAR(halving_error_ratio(integrate_ros34pw2, g, approximate, exact), 8.0, 1.5) << "J = " << j;
   }
 }
 

@@ -6,13 +6,18 @@
 #include <cmath>
 
 namespace cpgait {
+namespace {
 
-DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
-                                    double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
-  DormandPrinceSummary s;
+// The step loop both methods share: the Jacobian prepared at each step's start (and kept through
+// retried steps), step-size control, accepted steps reported. attempt(t, h, f0, y) takes the step
+// from (t, x) with f0 = f(t, x) into y and returns its scaled error; step_factor(norm) the next
+// step's ratio before clamping.
+template <typename Attempt, typename StepFactor>
+DormandPrinceSummary rosenbrock_steps(const WPrepare& prepare, double t0, double t1, Eigen::VectorXd& x,
+                                      const RosenbrockOptions& o, const WStepDone& step_done, Attempt&& attempt,
+                                      StepFactor&& step_factor, DormandPrinceSummary& s) {
   const long n = x.size();
-  const double gamma = 1.0 + 1.0 / std::sqrt(2.0);
-  Eigen::VectorXd f0(n), f1(n), k1(n), k2(n), y(n), rhs(n);
+  Eigen::VectorXd f0(n), y(n);
   double t = t0;
   double h = std::clamp(o.initial_step_s, o.min_step_s, o.max_step_s);
   if (t1 <= t0) {
@@ -29,17 +34,8 @@ DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepar
       ++s.evaluations;
       prepared = true;
     }
-    solve(gamma * h, f0, k1);
-    y = x + h * k1;
-    f(t + h, y, f1);
-    ++s.evaluations;
-    rhs = f1 - 2.0 * k1;
-    solve(gamma * h, rhs, k2);
-    // Error: the difference to the first-order solution x + h k1.
-    y = x + 1.5 * h * k1 + 0.5 * h * k2;
-    rhs = 0.5 * h * (k1 + k2);
-    const double norm = scaled_rms_error(rhs, x, y, o.relative_tolerance, o.absolute_tolerance);
-    const double factor = std::clamp(0.9 / std::sqrt(std::max(norm, 1e-10)), 0.2, 5.0);
+    const double norm = attempt(t, h, f0, y);
+    const double factor = std::clamp(step_factor(norm), 0.2, 5.0);
     if (norm <= 1.0) {
       const double t_next = last ? t1 : t + h;
       if (step_done) step_done(t, x, t_next, y);
@@ -55,7 +51,6 @@ DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepar
   return s;
 }
 
-namespace {
 // ROS34PW2 in the transformed variables u_i = sum_j Gamma_ij k_j (Hairer & Wanner IV.7):
 // (I - gamma h J) u_i = gamma h (f(x + sum_j a_ij u_j) + sum_j c_ij u_j / h), x_new = x + sum m_i u_i,
 // error sum e_i u_i. Coefficients of Rang & Angermann (2005), as PETSc's TSROSWRA34PW2.
@@ -87,7 +82,30 @@ struct Ros34pw2 {
     stage_time = alpha.rowwise().sum();
   }
 };
+
 }  // namespace
+
+DormandPrinceSummary integrate_ros2(const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
+                                    double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
+  DormandPrinceSummary s;
+  const long n = x.size();
+  const double gamma = 1.0 + 1.0 / std::sqrt(2.0);
+  Eigen::VectorXd f1(n), k1(n), k2(n), rhs(n);
+  auto attempt = [&](double t, double h, const Eigen::VectorXd& f0, Eigen::VectorXd& y) {
+    solve(gamma * h, f0, k1);
+    y = x + h * k1;
+    f(t + h, y, f1);
+    ++s.evaluations;
+    rhs = f1 - 2.0 * k1;
+    solve(gamma * h, rhs, k2);
+    // Error: the difference to the first-order solution x + h k1.
+    y = x + 1.5 * h * k1 + 0.5 * h * k2;
+    rhs = 0.5 * h * (k1 + k2);
+    return scaled_rms_error(rhs, x, y, o.relative_tolerance, o.absolute_tolerance);
+  };
+  auto step_factor = [](double norm) { return 0.9 / std::sqrt(std::max(norm, 1e-10)); };
+  return rosenbrock_steps(prepare, t0, t1, x, o, step_done, attempt, step_factor, s);
+}
 
 DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
                                         double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
@@ -96,30 +114,15 @@ DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& pr
   const long n = x.size();
   std::array<Eigen::VectorXd, Ros34pw2::kStages> u;
   for (auto& ui : u) ui.resize(n);
-  Eigen::VectorXd f0(n), fi(n), y(n), rhs(n), err(n);
-  double t = t0;
-  double h = std::clamp(o.initial_step_s, o.min_step_s, o.max_step_s);
-  if (t1 <= t0) {
-    s.last_step_s = h;
-    return s;
-  }
-  bool prepared = false;
-  while (t < t1) {
-    const double h_unclipped = h;
-    bool last = false;
-    if (!begin_step(t, t1, o.max_steps, h, last, s)) break;
-    if (!prepared) {
-      prepare(t, x, f0);
-      ++s.evaluations;
-      prepared = true;
-    }
+  Eigen::VectorXd fi(n), stage(n), rhs(n), err(n);
+  auto attempt = [&](double t, double h, const Eigen::VectorXd& f0, Eigen::VectorXd& y) {
     for (int i = 0; i < Ros34pw2::kStages; ++i) {
       if (i == 0) {
         rhs = f0;
       } else {
-        y = x;
-        for (int j = 0; j < i; ++j) y += tab.a(i, j) * u[j];
-        f(t + tab.stage_time[i] * h, y, fi);
+        stage = x;
+        for (int j = 0; j < i; ++j) stage += tab.a(i, j) * u[j];
+        f(t + tab.stage_time[i] * h, stage, fi);
         ++s.evaluations;
         rhs = fi;
         for (int j = 0; j < i; ++j) rhs += (tab.c(i, j) / h) * u[j];
@@ -133,21 +136,10 @@ DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& pr
       y += tab.m[i] * u[i];
       err += tab.e[i] * u[i];
     }
-    const double norm = scaled_rms_error(err, x, y, o.relative_tolerance, o.absolute_tolerance);
-    const double factor = std::clamp(0.9 * std::cbrt(1.0 / std::max(norm, 1e-10)), 0.2, 5.0);
-    if (norm <= 1.0) {
-      const double t_next = last ? t1 : t + h;
-      if (step_done) step_done(t, x, t_next, y);
-      x = y;
-      t = t_next;
-      prepared = false;
-      next_step_after_accept(h, factor, last, h_unclipped, o.max_step_s, s);
-    } else if (!next_step_after_reject(h, factor, o.min_step_s, t, s)) {
-      break;
-    }
-  }
-  if (s.last_step_s == 0) s.last_step_s = h;
-  return s;
+    return scaled_rms_error(err, x, y, o.relative_tolerance, o.absolute_tolerance);
+  };
+  auto step_factor = [](double norm) { return 0.9 * std::cbrt(1.0 / std::max(norm, 1e-10)); };
+  return rosenbrock_steps(prepare, t0, t1, x, o, step_done, attempt, step_factor, s);
 }
 
 }  // namespace cpgait
