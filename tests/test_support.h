@@ -44,6 +44,19 @@ inline const Model& walker() {
 }
 
 // A fresh, empty folder under the system temp directory, unique to this process.
+// A pennate muscle's geometry and strength for the muscle models' unit tests; the caller adds its
+// model's curves or parameters.
+inline Muscle pennate_muscle(double max_isometric_force_N, double optimal_fiber_length_m, double tendon_slack_length_m,
+                             double pennation_at_optimal_rad) {
+  Muscle m;
+  m.max_isometric_force_N = max_isometric_force_N;
+  m.optimal_fiber_length_m = optimal_fiber_length_m;
+  m.tendon_slack_length_m = tendon_slack_length_m;
+  m.pennation_angle_at_optimal_rad = pennation_at_optimal_rad;
+  m.sin_pennation_at_optimal = std::sin(pennation_at_optimal_rad);
+  return m;
+}
+
 inline std::string temp_dir(const std::string& name) {
   const std::filesystem::path d =
       std::filesystem::temp_directory_path() / ("cpgait_test_" + name + "_" + std::to_string(::getpid()));

@@ -618,7 +618,7 @@ TEST(CoordinateCouplers, ForwardDynamicsConservesEnergyOnTheConstraint) {
   EXPECT_LT(worst_energy, 1e-5);    // measured 5e-7 J
 }
 
-// An integrator's stages skip the moment-arm matrix (form_moment_arms = false): the muscles'
+// An integrator's stages skip the moment-arm matrix (MuscleGeometry::kLengthsAndSpeeds): the muscles'
 // tensions go to the skeleton as body forces along their paths. The derivative must be the one
 // R^T F gives, on every reference model with muscles: wrapping surfaces, moving and conditional
 // points, couplers, rigid and compliant tendons.
@@ -657,8 +657,7 @@ TEST(MuscleDrivenDynamics, PathTensionsAsBodyForcesEqualMomentArmsOnEveryReferen
       Eigen::VectorXd with_arms(x.size()), with_forces(x.size());
       muscle_driven_derivatives(sys, 0.0, x, excitation, none, ws, with_arms);
       const Eigen::VectorXd tau_arms = ws.tau;
-      ws.form_moment_arms = false;
-      muscle_driven_derivatives(sys, 0.0, x, excitation, none, ws, with_forces);
+      muscle_driven_derivatives(sys, 0.0, x, excitation, none, ws, with_forces, MuscleGeometry::kLengthsAndSpeeds);
       if (!with_arms.allFinite()) continue;
       const double scale = 1.0 + tau_arms.cwiseAbs().maxCoeff();
       const double d = (ws.tau - tau_arms).cwiseAbs().maxCoeff() / scale;

@@ -153,13 +153,8 @@ TEST(Millard2012, UndampedElasticTendonKeepsTheCurvesAwayFromZero) {
 
 // A pennated Millard muscle with OpenSim's default curves (damped unless said otherwise).
 Muscle millard_muscle(double damping = 0.1) {
-  Muscle m;
+  Muscle m = refdata::pennate_muscle(1000, 0.1, 0.25, 0.3);
   m.name = "pennated";
-  m.max_isometric_force_N = 1000;
-  m.optimal_fiber_length_m = 0.1;
-  m.tendon_slack_length_m = 0.25;
-  m.pennation_angle_at_optimal_rad = 0.3;
-  m.sin_pennation_at_optimal = std::sin(0.3);
   m.max_contraction_velocity = 10;
   millard2012::Parameters p;
   p.fiber_damping = damping;
@@ -545,12 +540,7 @@ TEST(DeGrooteFregly2016, CurvesHaveTheirDefiningValues) {
 // with OpenSim's blend of the two time constants (faster than deactivation's, slower than activation's
 // alone at a = 0.5).
 TEST(DeGrooteFregly2016, EquilibriumAndActivation) {
-  Muscle m;
-  m.max_isometric_force_N = 800;
-  m.optimal_fiber_length_m = 0.1;
-  m.tendon_slack_length_m = 0.2;
-  m.pennation_angle_at_optimal_rad = 0.2;
-  m.sin_pennation_at_optimal = std::sin(0.2);
+  Muscle m = refdata::pennate_muscle(800, 0.1, 0.2, 0.2);
   m.activation_time_constant_s = 0.015;
   m.deactivation_time_constant_s = 0.060;
   m.min_control = 0;

@@ -20,14 +20,9 @@ namespace {
 
 // A pennate muscle with OpenSim's default Schutte curves (exponential passive force).
 Muscle schutte_muscle() {
-  Muscle m;
+  Muscle m = refdata::pennate_muscle(1000, 0.1, 0.2, 0.2);
   m.name = "test";
   m.type = "Schutte1993Muscle";
-  m.max_isometric_force_N = 1000;
-  m.optimal_fiber_length_m = 0.1;
-  m.tendon_slack_length_m = 0.2;
-  m.pennation_angle_at_optimal_rad = 0.2;
-  m.sin_pennation_at_optimal = std::sin(0.2);
   m.max_contraction_velocity = 10;
   m.min_control = 0;
   m.max_control = 1;

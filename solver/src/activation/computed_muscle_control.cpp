@@ -361,11 +361,9 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   bool start_fresh = false;
   const bool step_controls = std::any_of(steps.begin() + nm, steps.end(), [](bool b) { return b; });
   // Evaluations that neither form the Jacobian nor feed the window's solve skip the moment-arm
-  // matrix (MuscleDrivenWorkspace::form_moment_arms): the integrator's stages and the recording.
+  // matrix (MuscleGeometry::kLengthsAndSpeeds): the integrator's stages and the recording.
   auto stage_derivatives = [&](double time, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
-    ws.form_moment_arms = false;
-    muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, dy);
-    ws.form_moment_arms = true;
+    muscle_driven_derivatives(sys, time, y, excitation, control_now, ws, dy, MuscleGeometry::kLengthsAndSpeeds);
   };
   // Records between integration steps take their muscle forces from the step's two ends (linear in
   // time, as their states), once the evaluation that begins the next step has them at its end:
@@ -564,13 +562,11 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
         x_out.head(nq) = (2 * th3 - 3 * th2 + 1) * xa.head(nq) + (th3 - 2 * th2 + th) * h * xa.segment(nq, nq) +
                          (3 * th2 - 2 * th3) * xb.head(nq) + (th3 - th2) * h * xb.segment(nq, nq);
         if (coupled) assemble_coordinate_constraints(model, x_out.data(), x_out.data() + nq);
-        const double share = double(next_out) / n_out;
         r.time_s.push_back(to);
         rec_x.push_back(x_out);
+        controls_at(to);
         Eigen::VectorXd actuator_force(na);
-        for (int j = 0; j < na; ++j)
-          actuator_force[j] = (steps[nm + j] ? control_new[j] : control_prev[j] + share * (control_new[j] - control_prev[j])) *
-                              sys.actuators->spec(j).optimal_force;
+        for (int j = 0; j < na; ++j) actuator_force[j] = control_now[j] * sys.actuators->spec(j).optimal_force;
         rec_fa.push_back(actuator_force);
         rec_fm.push_back(force_at_step_start);  // completed by muscle_forces_at_x
         pending.emplace_back(rec_fm.size() - 1, th);

@@ -36,8 +36,9 @@ Eigen::Vector3d point_velocity_in_ground(const MotionSubspace& S, const std::vec
 
 void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
                                const Eigen::VectorXd& excitation, const Eigen::VectorXd& control,
-                               MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot) {
+                               MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot, MuscleGeometry geometry) {
   const Model& model = *sys.model;
+  const bool moment_arms = geometry == MuscleGeometry::kMomentArms;
   const int nq = sys.num_coordinates(), nm = sys.num_muscles(), na = sys.num_actuators();
   const bool coupled = ws.constrained;
   if (coupled) {
@@ -82,7 +83,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   // Muscles (rigid tendon) and actuators.
   ws.tau.setZero();
   if (nm > 0) {
-    if (ws.form_moment_arms) {
+    if (moment_arms) {
       muscle_path_geometry(model, q, u, fd.kinematics, fd.S, ws.geometry);
     } else {
       for (int m = 0; m < nm; ++m) {
@@ -115,7 +116,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       }
       xdot[sys.activation_index(m)] = thelen_activation_rate(mu, excitation[m], a);
     }
-    if (ws.form_moment_arms) {
+    if (moment_arms) {
       ws.tau.noalias() += ws.geometry.moment_arm_m.transpose() * ws.muscle_force_N;
     } else {
       for (auto& w : ws.muscle_wrench) w.setZero();
@@ -160,10 +161,7 @@ void add_moment_arm_product(const MuscleDrivenJacobian& jac, const Eigen::Vector
 void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
                            const Eigen::VectorXd& excitation, const Eigen::VectorXd& control, MuscleDrivenWorkspace& ws,
                            MuscleDrivenJacobian& jac, Eigen::VectorXd& xdot) {
-  const bool form = ws.form_moment_arms;
-  ws.form_moment_arms = true;
   muscle_driven_derivatives(sys, t, x, excitation, control, ws, xdot);
-  ws.form_moment_arms = form;
   muscle_driven_jacobian(sys, x, excitation, ws, jac, xdot);
 }
 

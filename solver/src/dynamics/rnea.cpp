@@ -23,18 +23,13 @@ void rnea(const Model& model, const double* q, const double* qd, const double* q
 
 void rnea_from_kinematics(const Model& model, const double* qd, const double* qdd, const std::vector<Vector6d>& external,
                           DynamicsWorkspace& ws, double* tau) {
-  ws.velocity[0].setZero();
+  // The body velocities are rnea_kinematics' (motion_subspace_rate propagates them).
   ws.acceleration[0].setZero();
   for (const Joint& j : model.joints) {
-    Vector6d V = ws.velocity[j.parent_body], A = ws.acceleration[j.parent_body];
-    for (int c : j.coordinates) {
-      for (int r = 0; r < 6; ++r) {
-        const double s = ws.S.columns(r, c), sdot = ws.S_rate(r, c);
-        V[r] += s * qd[c];
-        A[r] += s * qdd[c] + sdot * qd[c];
-      }
-    }
-    ws.velocity[j.child_body] = V;
+    const Vector6d& V = ws.velocity[j.child_body];
+    Vector6d A = ws.acceleration[j.parent_body];
+    for (int c : j.coordinates)
+      for (int r = 0; r < 6; ++r) A[r] += ws.S.columns(r, c) * qdd[c] + ws.S_rate(r, c) * qd[c];
     ws.acceleration[j.child_body] = A;
 
     // Newton-Euler for the child body about its centre of mass, moved to the ground origin.

@@ -273,15 +273,13 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   };
   // They enter each evaluation's joint torques, so one solve with the mass matrix serves both.
   sys.generalized_forces = &tau_extra;
-  // The integrator's evaluations skip the moment-arm matrix (MuscleDrivenWorkspace::form_moment_arms);
-  // the evaluation at each control interval's start forms it for the reflexes and the Jacobian.
-  auto evaluate = [&](bool moment_arms, double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
+  // The integrator's evaluations skip the moment-arm matrix (MuscleGeometry::kLengthsAndSpeeds); the
+  // evaluation at each control interval's start forms it for the reflexes and the Jacobian.
+  auto evaluate = [&](MuscleGeometry geometry, double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) {
     extra_forces(y);
-    ws.form_moment_arms = moment_arms;
-    muscle_driven_derivatives(sys, t, y, excitation, no_controls, ws, dy);
-    ws.form_moment_arms = true;
+    muscle_driven_derivatives(sys, t, y, excitation, no_controls, ws, dy, geometry);
   };
-  auto f = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) { evaluate(false, t, y, dy); };
+  auto f = [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) { evaluate(MuscleGeometry::kLengthsAndSpeeds, t, y, dy); };
   // Each control interval starts with an evaluation at (t, x) for the residuals, reflexes and records;
   // the interval's first step reuses it (its excitations changed since, so only the activation rates
   // are redone): one evaluation fewer per interval. The Jacobian is formed there once per interval and
@@ -374,7 +372,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     }
     // Forces at the current state without residuals: contact, muscles, geometry for the reflexes.
     tau_root.setZero();
-    evaluate(true, t, x, xdot);  // the passive joints' torques included
+    evaluate(MuscleGeometry::kMomentArms, t, x, xdot);  // the passive joints' torques included
     xdot_start = xdot;
     start_evaluation_fresh = true;
     Eigen::VectorXd contact_row(3 * contacts.spheres.size());

@@ -9,6 +9,16 @@ namespace cpgait {
 // a moving point's own motion along its body's axes.
 namespace {
 
+// A moving point's own motion along its body's axes: own(c, axis, df) for each coordinate c that
+// moves it, the point moving by axis (ground) * df per unit of q_c.
+template <typename Own>
+void for_each_own_coordinate(const PathPoint& p, const KinematicsWorkspace<double>& ws, const double* q, Own&& own) {
+  if (p.kind != PathPoint::Kind::kMoving) return;
+  const auto& R = ws.body_in_ground[p.body].rotation;
+  for (int a = 0; a < 3; ++a)
+    if (const int c = p.moving_coordinates[a]; c >= 0) own(c, R.col(a), p.moving_functions[a].derivative(q[c]));
+}
+
 // The path's length and dL/dq from its current vertices.
 template <typename PathOwner>
 double length_and_gradient(const Model& model, const PathOwner& owner, const double* q, const KinematicsWorkspace<double>& ws,
@@ -20,11 +30,7 @@ double length_and_gradient(const Model& model, const PathOwner& owner, const dou
     for (int c : j.coordinates) row[c] += sign * e.dot(point_velocity_column(S, c, x));
   };
   auto add_moving = [&](const PathPoint& p, const Eigen::Vector3d& e, double sign, double* row) {
-    if (p.kind != PathPoint::Kind::kMoving) return;
-    const auto& R = ws.body_in_ground[p.body].rotation;
-    for (int a = 0; a < 3; ++a)
-      if (p.moving_coordinates[a] >= 0)
-        row[p.moving_coordinates[a]] += sign * e.dot(R.col(a)) * p.moving_functions[a].derivative(q[p.moving_coordinates[a]]);
+    for_each_own_coordinate(p, ws, q, [&](int c, const auto& axis, double df) { row[c] += sign * e.dot(axis) * df; });
   };
   current_path(model, owner, q, ws, path);
   dL_dq.setZero(model.num_coordinates());
@@ -83,6 +89,21 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
 
 namespace {
 bool moves_on_its_body(const PathVertex<double>& p) { return p.point && p.point->kind == PathPoint::Kind::kMoving; }
+
+// The straight segments that can stretch: segment(u, v, d, n) with d = x_v - x_u and n = |d| > 0.
+// Skipped: the stretches over a wrap surface (they move with it) and segments fixed on one body.
+template <typename Segment>
+void for_each_stretching_segment(const std::vector<PathVertex<double>>& path, Segment&& segment) {
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const PathVertex<double>& u = path[i];
+    const PathVertex<double>& v = path[i + 1];
+    if (u.body == v.body && !moves_on_its_body(u) && !moves_on_its_body(v)) continue;
+    if (u.wrap >= 0 && v.wrap == u.wrap) continue;
+    const Eigen::Vector3d d = v.x_ground - u.x_ground;
+    const double n = d.norm();
+    if (n > 0) segment(u, v, d, n);
+  }
+}
 }  // namespace
 
 double current_path_lengthening_speed(const std::vector<PathVertex<double>>& path, const double* q, const double* qd,
@@ -91,52 +112,28 @@ double current_path_lengthening_speed(const std::vector<PathVertex<double>>& pat
   auto velocity = [&](const PathVertex<double>& p) -> Eigen::Vector3d {
     const SpatialVector& V = body_velocity[p.body];
     Eigen::Vector3d v = V.tail<3>() + V.head<3>().cross(p.x_ground);
-    if (p.point && p.point->kind == PathPoint::Kind::kMoving) {
-      const auto& R = ws.body_in_ground[p.body].rotation;
-      for (int a = 0; a < 3; ++a)
-        if (const int c = p.point->moving_coordinates[a]; c >= 0) v += R.col(a) * (p.point->moving_functions[a].derivative(q[c]) * qd[c]);
-    }
+    if (p.point) for_each_own_coordinate(*p.point, ws, q, [&](int c, const auto& axis, double df) { v += axis * (df * qd[c]); });
     return v;
   };
   double speed = 0;
-  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-    const PathVertex<double>& u = path[i];
-    const PathVertex<double>& v = path[i + 1];
-    if (u.body == v.body && !moves_on_its_body(u) && !moves_on_its_body(v)) continue;  // a rigid segment: no stretch
-    if (u.wrap >= 0 && v.wrap == u.wrap) continue;
-    const Eigen::Vector3d d = v.x_ground - u.x_ground;
-    const double n = d.norm();
-    if (n == 0) continue;
+  for_each_stretching_segment(path, [&](const auto& u, const auto& v, const Eigen::Vector3d& d, double n) {
     speed += d.dot(velocity(v) - velocity(u)) / n;
-  }
+  });
   return speed;
 }
 
 void add_path_tension(const std::vector<PathVertex<double>>& path, const double* q, const KinematicsWorkspace<double>& ws,
-                      double tension_N, std::vector<SpatialVector>& body_wrench,
-                      double* tau) {
+                      double tension_N, std::vector<SpatialVector>& body_wrench, double* tau) {
   auto apply = [&](const PathVertex<double>& p, const Eigen::Vector3d& f) {
     body_wrench[p.body].head<3>() += p.x_ground.cross(f);
     body_wrench[p.body].tail<3>() += f;
-    if (p.point && p.point->kind == PathPoint::Kind::kMoving) {
-      const auto& R = ws.body_in_ground[p.body].rotation;
-      for (int a = 0; a < 3; ++a)
-        if (const int c = p.point->moving_coordinates[a]; c >= 0) tau[c] += f.dot(R.col(a)) * p.point->moving_functions[a].derivative(q[c]);
-    }
+    if (p.point) for_each_own_coordinate(*p.point, ws, q, [&](int c, const auto& axis, double df) { tau[c] += f.dot(axis) * df; });
   };
-  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-    const PathVertex<double>& u = path[i];
-    const PathVertex<double>& v = path[i + 1];
-    // Equal and opposite on one body along one line: nothing.
-    if (u.body == v.body && !moves_on_its_body(u) && !moves_on_its_body(v)) continue;
-    if (u.wrap >= 0 && v.wrap == u.wrap) continue;
-    const Eigen::Vector3d d = v.x_ground - u.x_ground;
-    const double n = d.norm();
-    if (n == 0) continue;
+  for_each_stretching_segment(path, [&](const auto& u, const auto& v, const Eigen::Vector3d& d, double n) {
     const Eigen::Vector3d f = (tension_N / n) * d;  // pulls u towards v, v towards u
     apply(u, f);
     apply(v, -f);
-  }
+  });
 }
 
 namespace {

@@ -57,12 +57,7 @@ struct MuscleDrivenWorkspace {
   std::vector<int> free;
   Eigen::MatrixXd G, M_free;
   std::vector<char> rigid_tendon;  // per muscle: its own model's tendon is inextensible
-  // False: evaluations leave geometry.moment_arm_m as it was and apply the muscles' tensions through
-  // their paths' body forces instead (muscle_path.h: the same generalized forces to rounding), for
-  // an integrator's stages that nobody reads the moment arms of. The Jacobian needs them: prepare
-  // always forms them. Default true.
-  bool form_moment_arms = true;
-  std::vector<std::vector<PathVertex<double>>> paths;  // per muscle, when form_moment_arms is false
+  std::vector<std::vector<PathVertex<double>>> paths;  // per muscle (MuscleGeometry::kLengthsAndSpeeds)
   std::vector<Vector6d> muscle_wrench;                  // per body: the muscles' tensions
   // Outputs of the last evaluation.
   double time_s = 0;
@@ -74,10 +69,17 @@ struct MuscleDrivenWorkspace {
   explicit MuscleDrivenWorkspace(const MuscleDrivenSystem& sys);
 };
 
+// What an evaluation leaves in ws.geometry. kLengthsAndSpeeds: no moment-arm matrix (moment_arm_m
+// stays as it was); the muscles' tensions reach the joints as their paths' body forces
+// (muscle_path.h: the same generalized forces to rounding), for an integrator's stages that nobody
+// reads the moment arms of. The Jacobian needs them: muscle_driven_prepare forms them.
+enum class MuscleGeometry { kMomentArms, kLengthsAndSpeeds };
+
 // xdot = f(t, x); excitation per muscle (clamped to its control range), control per actuator.
 void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t_s, const Eigen::VectorXd& x,
                                const Eigen::VectorXd& excitation, const Eigen::VectorXd& control,
-                               MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot);
+                               MuscleDrivenWorkspace& ws, Eigen::VectorXd& xdot,
+                               MuscleGeometry geometry = MuscleGeometry::kMomentArms);
 
 // The Jacobian approximation integrate_ros2 uses: the stiff parts only. Per muscle, the activation
 // and fibre-length rates against their own states (diagonal), the muscle force against fibre length

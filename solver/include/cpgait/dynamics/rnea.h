@@ -38,8 +38,8 @@ void rnea(const Model& model, const double* q, const double* qd, const double* q
           const std::vector<Vector6d>& external, DynamicsWorkspace& ws, double* tau);
 
 // rnea in two parts, for a caller that needs the pose and motion subspace too: the kinematics (pose,
-// S and dS/dt), copied out where the caller keeps its own, then the recursion on the kinematics
-// already in ws.
+// S, dS/dt and the body velocities), copied out where the caller keeps its own, then the recursion
+// on the kinematics already in ws (qd: the speeds rnea_kinematics was given).
 void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws);
 void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>& kinematics, MotionSubspace& S);
 void rnea_from_kinematics(const Model& model, const double* qd, const double* qdd, const std::vector<Vector6d>& external,
