@@ -283,7 +283,7 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
   // Fields added to a section since: their defaults.
   for (const auto& [section, field] : {std::pair<const char*, const char*>{"gait", "phase_reference"}, {"gait", "tune_evaluations"},
                                        {"gait", "tune_horizon_s"}, {"gait", "tune_rounds"}, {"gait", "speed_knobs"},
-                                       {"gait", "schedule_evaluations"}}) {
+                                       {"gait", "schedule_evaluations"}, {"gait", "tune_rotation_limit_deg"}}) {
     EXPECT_EQ(written_doc[section][field], PipelineOptions().to_json()[section][field]) << section << "." << field;
     written_doc[section].erase(field);
   }

@@ -339,12 +339,17 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const std::string dir = cpgait::refdata::temp_dir("cli_tune");
   const std::string model = cpgait::refdata::fixture("models/walker.osim");
   ASSERT_EQ(run("synth --model " + model + " --duration 4 -o " + dir + "/w.trc").status, 0);
-  std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "speed_knobs": [0.8], "schedule_evaluations": 4}})";
+  std::ofstream(dir + "/options.json")
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "speed_knobs": [0.8], "schedule_evaluations": 4}})";
   const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json gait = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_gait.json"));
   ASSERT_TRUE(gait.contains("tuning")) << gait.dump();
   EXPECT_GE(gait["tuning"]["simulations"].get<int>(), 8);
+  // The rotation bound reaches the tuner: 0.01 deg, far below any walk's tracking, costs each candidate
+  // fall_weight (10) per bound's worth of excess, where without it a candidate costs at most ~12.
+  EXPECT_EQ(gait["tuning"]["rotation_limit_deg"].get<double>(), 0.01);
+  EXPECT_GT(gait["tuning"]["cost"][0].get<double>(), 100.0) << gait["tuning"].dump();
   EXPECT_FALSE(gait["pelvis_residuals"].get<bool>());
   // On its own it walks (or tries to) the trial's length and at least 10 s: the walker falls sooner.
   EXPECT_TRUE(gait["simulated_s"].get<double>() >= 10.0 - 1e-9 || !gait["fell_at_s"].is_null()) << gait.dump();

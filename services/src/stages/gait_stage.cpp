@@ -20,6 +20,7 @@ struct GaitStageOptions {
   int tune_evaluations = 0;
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
+  double tune_rotation_limit_deg = 0;
   std::vector<double> speed_knobs;
   int schedule_evaluations = 0;
 
@@ -41,6 +42,9 @@ struct GaitStageOptions {
                     NumberRange{0.5, 30.0, true})
             .integer("tune_rounds", &GaitStageOptions::tune_rounds, 1, 10,
                      "CMA-ES restarts, each from the last best, their horizons rising evenly to tune_horizon_s")
+            .number("tune_rotation_limit_deg", &GaitStageOptions::tune_rotation_limit_deg, "deg",
+                    "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (RMS) costs as much as a fall (0: no bound)",
+                    NumberRange{0.0, 90.0})
             .number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
                          "more walks, each as long as the first, at these CPG speed knobs (times the trial's cadence), the controller "
                          "scheduled for each knob where the CPG holds controllers tuned at several; their motions go to "
@@ -91,11 +95,13 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.evaluations = o.tune_evaluations;
   to.horizon_s = o.tune_horizon_s;
   to.rounds = o.tune_rounds;
+  to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, trial.progress);
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
+                           {"horizon_s", to.horizon_s}, {"rotation_limit_deg", to.worst_rotation_limit_deg},
+                           {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;
   for (double knob : o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{}) {
     ReproducedGaitOptions at = go;
