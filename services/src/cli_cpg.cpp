@@ -277,10 +277,18 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,
                    "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (deg RMS) costs as much as a fall")
       ->check(CLI::Range(0.0, 90.0));
-  gait->add_option("--stop-at", g->options.stop_time_s, "walk -> stand: from this time, s, freeze the walk at the next --stop-phase and stand");
+  gait->add_option("--stop-at", g->options.stop_time_s,
+                   "walk -> stand: from this time, s, stop the walk at the next --stop-phase: the CPG fades out, the reflexes turn to a "
+                   "standing pose (feet flat, the centre of mass over them) and an ankle and hip balance holds it");
   gait->add_option("--stop-over", g->options.stop_over_s, "walk -> stand: the treadmill belt's time to halt once the walk froze, s (default 0.3)");
-  gait->add_option("--stop-phase", g->options.stop_phase, "walk -> stand: the cycle phase (0-1 from the CPG foot's heel strike) where the walk freezes")
+  gait->add_option("--stop-phase", g->options.stop_phase, "walk -> stand: the cycle phase (0-1 from the CPG foot's heel strike) where the walk stops (0.3: that foot's mid-stance)")
       ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  gait->add_option("--stand-blend", g->options.stand_blend_s, "walk -> stand: the reflexes' time to turn from the stopped pose to the standing one, s")
+      ->check(CLI::Range(0.0, 5.0))
+      ->capture_default_str();
+  gait->add_option("--stand-fade", g->options.stand_fade_s, "walk -> stand: the CPG's excitations' time to fade out, s")
+      ->check(CLI::Range(0.0, 5.0))
       ->capture_default_str();
   gait->add_option("--push-time", g->options.push_time_s, "push the pelvis at this time, s (with --push-force)");
   gait->add_option("--push-force", g->push_force_N, "the push's force at the pelvis' origin, N, ground frame (x y z)")->expected(3);

@@ -443,8 +443,9 @@ TEST(CpgGait2392, ReproducedGaitOnContactSpheres) {
 // over the reflex and balance gains and the CPG's amplitude in rounds of rising horizon. The tuned
 // controller, stored in the CPG's JSON, replays the walk the tuner scored. The targets: 10 s
 // without falling, every rotation within 5 deg RMS of the trial's cycle over the first two cycles,
-// the stride within 5 % of the trial's. Measured with this test's 600 simulations (rounds over 5 and
-// 10 s, 108 s on 2 cores): 10 s, 8 strides, worst 4.29 deg (hip_adduction_l), stride 0.2 % off.
+// the stride within 5 % of the trial's; walk -> stand. Measured with this test's 600 simulations
+// (rounds over 5 and 10 s, 178 s on 2 cores): 10 s, 8 strides, worst 3.53 deg (hip_adduction_l),
+// stride 1.220 s; stopped at 4.67 s, at rest at 5.47 s, then stood 4.53 s to the end.
 TEST(CpgGait2392, TunedControllerWalksWithoutResidualsAndReplaysFromTheCpgJson) {
   for (const auto& p : subject01_gait_inputs()) REQUIRE_REFERENCE(p);
   const Subject01Cpg& c = subject01_cpg();
@@ -479,6 +480,18 @@ TEST(CpgGait2392, TunedControllerWalksWithoutResidualsAndReplaysFromTheCpgJson) 
   ASSERT_GE(walk.heel_strikes_r_s.size(), 2u);
   EXPECT_NEAR(walk.stride_time_s / c.fit.model.cycle_s, 1.0, 0.05);
   EXPECT_LT(walk.worst_rotation_rms_rad * 180 / M_PI, 5.0) << walk.worst_rotation;
+  // Walk -> stand from 4.5 s: it stops at the next stop phase (within a cycle), comes to rest within
+  // two strides of that and stands 3 s with its centre of mass over its feet.
+  ReproducedGaitOptions stop = r;
+  stop.stop_time_s = 4.5;
+  const ReproducedGaitResult stand = reproduce_gait(g.m, replayed, g.kin, g.feet, stop);
+  std::printf("[ info ] walk -> stand: %s\n", stand.BriefReport().c_str());
+  EXPECT_LT(stand.fell_at_s, 0.0);
+  EXPECT_GE(stand.frozen_at_s, stop.stop_time_s);
+  EXPECT_LT(stand.frozen_at_s, stop.stop_time_s + c.fit.model.cycle_s);
+  ASSERT_GE(stand.stopped_at_s, stand.frozen_at_s);
+  EXPECT_LT(stand.stopped_at_s - stand.frozen_at_s, 2 * c.fit.model.cycle_s);
+  EXPECT_GE(stand.stood_s, 3.0);
 }
 
 // The default foot spheres on subject01: level in the default pose (the foot standing flat), and

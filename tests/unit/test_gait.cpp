@@ -7,6 +7,8 @@
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/gait/simbicon_balance.h"
+#include "cpgait/gait/standing_balance.h"
+#include "cpgait/gait/standing_pose.h"
 #include "cpgait/gait/tune_gait_controller.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
@@ -207,6 +209,110 @@ TEST(SimbiconBalance, SwingHipTargetMovesTheFootByTheRaibertShift) {
 
 namespace {
 
+Eigen::Vector3d lowest_point(const ContactSet& feet, const KinematicsWorkspace<double>& kin, int s) {
+  const ContactSphere& sp = feet.spheres[s];
+  return kin.body_in_ground[sp.body].rotation * sp.location_m + kin.body_in_ground[sp.body].translation_m - sp.radius_m * Eigen::Vector3d::UnitY();
+}
+
+}  // namespace
+
+// The standing pose from a pose off it (the pelvis high, the legs bent): both feet flat on the ground
+// (every sphere's lowest point at its height: two spheres a foot), the centre of mass over the middle
+// of the feet, the pelvis' orientation kept.
+TEST(StandingPose, FeetFlatOnTheGroundAndTheCentreOfMassOverThem) {
+  const Model& m = refdata::walker();
+  const ContactSet feet = default_foot_contacts(m);
+  const SimbiconLegs legs = simbicon_legs(m, feet);
+  ASSERT_TRUE(legs.valid());
+  ASSERT_EQ(legs.spheres[0].size(), 2u);
+  ASSERT_EQ(legs.spheres[1].size(), 2u);
+  Eigen::VectorXd q0 = m.default_coordinates();
+  const std::pair<const char*, double> set[] = {{"pelvis_ty", 1.2}, {"pelvis_tilt", 0.05}, {"hip_flexion_r", 0.3}, {"knee_angle_l", -0.4},
+                                                {"ankle_angle_r", 0.2}, {"hip_adduction_l", 0.1}};
+  for (const auto& [name, value] : set) q0[m.coordinate_index(name)] = value;
+  const double ground_m = 0.02;
+  StandingPoseSummary summary;
+  const Eigen::VectorXd q = standing_pose(m, feet, legs, q0, ground_m, &summary);
+  EXPECT_LT(summary.residual_m, 1e-7);
+  KinematicsWorkspace<double> kin(m);
+  forward_kinematics(m, q.data(), kin);
+  Eigen::Vector3d middle = Eigen::Vector3d::Zero();
+  for (std::size_t s = 0; s < feet.spheres.size(); ++s) {
+    EXPECT_NEAR(lowest_point(feet, kin, static_cast<int>(s)).y(), ground_m, 1e-7) << feet.spheres[s].name;
+    middle += lowest_point(feet, kin, static_cast<int>(s)) / static_cast<double>(feet.spheres.size());
+  }
+  const Eigen::Vector3d com = centre_of_mass_m(m, kin);
+  EXPECT_NEAR(com.x(), middle.x(), 1e-7);
+  EXPECT_NEAR(com.z(), middle.z(), 1e-7);
+  for (int c : legs.pelvis_rotations) EXPECT_EQ(q[c], q0[c]) << m.coordinates[c].name;
+  EXPECT_GT((q - q0).cwiseAbs().maxCoeff(), 0.05);  // it had to move
+}
+
+// Standing balance in the standing pose: the centre of mass moving forward, only the ankles' targets
+// change, the way that turns the body above each foot back (the pelvis, seen from the foot, moves
+// back); moving right, only the hips' ab/adduction targets, the way that moves each foot right under
+// the pelvis (a level pelvis carried left over the feet).
+TEST(StandingBalance, AnklesAndHipsCarryTheBodyBackOverTheFeet) {
+  const Model& m = refdata::walker();
+  const ContactSet feet = default_foot_contacts(m);
+  const SimbiconLegs legs = simbicon_legs(m, feet);
+  const int nq = m.num_coordinates();
+  const Eigen::VectorXd q = standing_pose(m, feet, legs, m.default_coordinates(), 0.0);
+  KinematicsWorkspace<double> kin(m);
+  MotionSubspace S(m);
+  forward_kinematics(m, q.data(), kin);
+  motion_subspace(m, q.data(), kin, S);
+  const StandingJoints joints = standing_joints(m, feet, legs, kin, S);
+  EXPECT_EQ(joints.ankle[0], m.coordinate_index("ankle_angle_r"));
+  EXPECT_EQ(joints.ankle[1], m.coordinate_index("ankle_angle_l"));
+  EXPECT_EQ(joints.hip[0], m.coordinate_index("hip_adduction_r"));
+  EXPECT_EQ(joints.hip[1], m.coordinate_index("hip_adduction_l"));
+  const int pelvis = legs.pelvis_body;
+  // Where the pelvis' origin lies in a body's frame, and a foot's spheres' middle in the pelvis'.
+  auto in_frame = [](const KinematicsWorkspace<double>& k, int body, const Eigen::Vector3d& p) {
+    return Eigen::Vector3d(k.body_in_ground[body].rotation.transpose() * (p - k.body_in_ground[body].translation_m));
+  };
+  auto foot_middle = [&](const KinematicsWorkspace<double>& k, int side) {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int s : legs.spheres[side]) p += lowest_point(feet, k, s) / static_cast<double>(legs.spheres[side].size());
+    return p;
+  };
+  const double speed = 0.01;  // m/s
+  for (int way = 0; way < 2; ++way) {
+    StandingBalanceGains g{0, 0, 0, 0};
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(nq);
+    if (way == 0) g.ankle_kv = 1, u[m.coordinate_index("pelvis_tx")] = speed;  // forward
+    else g.hip_kv = 1, u[m.coordinate_index("pelvis_tz")] = speed;             // right
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(nq);
+    standing_balance_feedback(m, feet, legs, joints, g, kin, S, u, 1.0, e);
+    const int* moved = way == 0 ? joints.ankle : joints.hip;
+    for (int c = 0; c < nq; ++c)
+      if (c != moved[0] && c != moved[1]) {
+        EXPECT_EQ(e[c], 0.0) << way << " " << m.coordinates[c].name;
+      }
+    for (int side = 0; side < 2; ++side) {
+      const int c = moved[side];
+      EXPECT_GT(std::abs(e[c]), 0.5 * speed) << way << " " << side;
+      Eigen::VectorXd q1 = q;
+      q1[c] += e[c];
+      KinematicsWorkspace<double> after(m);
+      forward_kinematics(m, q1.data(), after);
+      if (way == 0) {
+        const int foot = feet.spheres[legs.spheres[side].front()].body;
+        const Eigen::Vector3d before_in_foot = in_frame(kin, foot, kin.body_in_ground[pelvis].translation_m);
+        const Eigen::Vector3d after_in_foot = in_frame(after, foot, after.body_in_ground[pelvis].translation_m);
+        EXPECT_LT(after_in_foot.x() - before_in_foot.x(), -0.1 * speed) << "the pelvis seen from foot " << side;
+      } else {
+        const double before_z = in_frame(kin, pelvis, foot_middle(kin, side)).z();
+        const double after_z = in_frame(after, pelvis, foot_middle(after, side)).z();
+        EXPECT_GT(after_z - before_z, 0.1 * speed) << "foot " << side << " under the pelvis";
+      }
+    }
+  }
+}
+
+namespace {
+
 // The walker's reference: the default pose held for 3 s, and its CPG; the gait starts at 0.5 s.
 struct StillWalker {
   const Model& m = refdata::walker();
@@ -277,17 +383,21 @@ TEST(ContactSet, StepEdgeRidesOnTheBelt) {
   EXPECT_LT(sphere_contact_force(s, set, Eigen::Vector3d(1.0, 0.02 + s.radius_m - 0.001, 0), Eigen::Vector3d::Zero(), 0.0).norm(), 1e-6);
 }
 
-// Walk -> stand: past stop_time_s the walk goes on to the stop phase, then freezes: the reference
-// pose stays that of the stop phase, at rest, and the CPG's excitations hold (no reflexes here).
+// Walk -> stand: past stop_time_s the walk goes on to the stop phase, then stops there: the reflexes'
+// targets turn from the reference's pose at that phase to the standing pose over stand_blend_s (half
+// way at half the time), the CPG's excitations fade to the muscles' minimum over stand_fade_s (no
+// reflexes here, so the excitations are the CPG's alone).
 //
-// The stop was chosen on gait10dof18musc (tuned controller, stop from 4.5 s, 12 s; measured): frozen
-// at phase 0.8 it fell at 8.0 s and at 0.85 at 7.1 s; at 0.9, 0.95 and 0.0 it came to rest within
-// 0.5-1 s and stood to the end; at 0.05 it came to rest only at 10.45 s. The stop before it faded the
-// CPG out and turned the reflexes' targets to the cycle's mean pose: gait10dof18musc came to rest on
-// its toes and tipped over about 4 s later; subject01 fell 1-1.6 s after the stop. subject01 still
-// falls, sideways, 1.3-2 s after a freeze at every phase tried (0, 0.03, 0.06, 0.1, 0.5, 0.53, 0.56,
-// 0.9, 0.95), with the CPG's excitations held or halved.
-TEST(ReproducedGait, StopFreezesTheWalkAtItsStopPhase) {
+// The stop was chosen on subject01 and gait10dof18musc (tuned controllers, stop from 4.5 s, 10 s walks;
+// measured). Holding the pose and the excitations of the stop phase, gait10dof18musc stood (phases
+// 0.9-0.0), subject01 fell 1.3-2 s after every phase tried, tipped sideways. Turning to a standing pose
+// with the trunk feedback on, subject01 spun about a single loaded sphere and fell 1.2-2.3 s after
+// the stop; without the trunk feedback (on two loaded legs it pulls them apart: a 10 N s sideways
+// push felled the model standing with it, not without) it stood on its heels and tipped over 2-4.8 s
+// later. With the ankle and hip balance (standing_balance.h) it stands: subject01's README controller
+// at phases 0.15-0.35 and 0.7-0.85 (0.3: at rest 0.64 s after the stop, then 4.67 s to the end), two
+// other subject01 controllers at 0.3-0.35, gait10dof18musc at 0.3-0.4 and 0.7-0.9; all fall at 0.95.
+TEST(ReproducedGait, StopTurnsTheWalkToTheStandingPose) {
   StillWalker w;
   const int nq = w.m.num_coordinates();
   // A reference that moves: the hip swings once a CPG cycle.
@@ -298,30 +408,49 @@ TEST(ReproducedGait, StopFreezesTheWalkAtItsStopPhase) {
   ReproducedGaitOptions o;
   o.start_time_s = 0.5;
   o.begin_time_s = 0.5;
-  o.duration_s = 0.5;
+  o.duration_s = 0.8;
   o.reflex_kp = o.reflex_kv = 0;
   o.stop_time_s = 0.1;
   o.stop_phase = 0.4;
+  o.stand_blend_s = 0.2;
+  o.stand_fade_s = 0.1;
+  o.fall_height_fraction = -1e9;  // without reflexes it sinks; the targets are the point here
   const ReproducedGaitResult r = reproduce_gait(w.m, w.cpg, reference, w.feet, o);
-  ASSERT_GT(r.time_s.size(), 400u);
+  ASSERT_GT(r.time_s.size(), 700u);
   // The phase reaches 0.4 at 0.4 cycles after the start's heel strike (at the beginning here).
   const double dt = o.control_interval_s;
   EXPECT_NEAR(r.frozen_at_s, 0.4 * w.cpg.cycle_s, dt + 1e-9);
   const Eigen::Index frozen = static_cast<Eigen::Index>(std::lround(r.frozen_at_s / dt));
   const Eigen::Index walking = frozen / 2, last = static_cast<Eigen::Index>(r.time_s.size()) - 1;
-  // The hip's target: the reference at the stop phase, from the freeze to the end.
+  const Eigen::Index half = frozen + static_cast<Eigen::Index>(std::lround(0.5 * o.stand_blend_s / dt));
+  const Eigen::Index blended = frozen + static_cast<Eigen::Index>(std::lround(o.stand_blend_s / dt));
+  const Eigen::Index faded = frozen + static_cast<Eigen::Index>(std::lround(o.stand_fade_s / dt));
+  ASSERT_LT(blended, last);
+  // The targets: the reference at the stop phase at the stop, the standing pose (from the default
+  // pose, where the walk began) from stand_blend_s on, half way between at half the time.
+  const SimbiconLegs legs = simbicon_legs(w.m, w.feet);
+  Eigen::VectorXd q0 = w.m.default_coordinates();
+  const Eigen::VectorXd standing = standing_pose(w.m, w.feet, legs, q0, w.feet.ground_height_m);
   const double at_stop = 0.3 + 0.2 * std::sin(2 * M_PI * (o.start_time_s / w.cpg.cycle_s + 0.4));
-  EXPECT_NEAR(r.q_reference(last, hip), at_stop, 0.2 * 2 * M_PI * dt / w.cpg.cycle_s);
-  EXPECT_GT(std::abs(r.q_reference(walking, hip) - r.q_reference(last, hip)), 0.01);
-  EXPECT_LT((r.q_reference.row(last) - r.q_reference.row(frozen + 1)).cwiseAbs().maxCoeff(), 1e-12);
-  // The CPG's excitations: moving before the freeze, held after it.
-  EXPECT_GT((r.excitations.row(walking) - r.excitations.row(frozen - 1)).cwiseAbs().maxCoeff(), 1e-3);
-  EXPECT_LT((r.excitations.row(last) - r.excitations.row(frozen + 1)).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NEAR(r.q_reference(frozen, hip), at_stop, 0.2 * 2 * M_PI * dt / w.cpg.cycle_s);
+  EXPECT_GT(std::abs(r.q_reference(walking, hip) - r.q_reference(frozen, hip)), 0.01);
   for (int c = 0; c < nq; ++c) {
-    if (c != hip && w.m.coordinates[c].is_angle()) {
-      EXPECT_NEAR(r.q_reference(last, c), q(0, c), 1e-9) << w.m.coordinates[c].name;
+    if (w.m.coordinates[c].is_angle()) {
+      EXPECT_NEAR(r.q_reference(last, c), standing[c], 1e-12) << w.m.coordinates[c].name;
+      EXPECT_NEAR(r.q_reference(blended, c), standing[c], 1e-12) << w.m.coordinates[c].name;
+      EXPECT_NEAR(r.q_reference(half, c), 0.5 * (r.q_reference(frozen, c) + standing[c]), 1e-9) << w.m.coordinates[c].name;
     }
   }
+  EXPECT_GT(std::abs(standing[hip] - r.q_reference(frozen, hip)), 0.05);
+  // The CPG's excitations: moving before the stop, at the muscles' minimum from stand_fade_s on.
+  EXPECT_GT((r.excitations.row(walking) - r.excitations.row(frozen - 1)).cwiseAbs().maxCoeff(), 1e-3);
+  double above_minimum = 0;
+  for (int m = 0; m < static_cast<int>(w.m.muscles.size()); ++m) {
+    above_minimum = std::max(above_minimum, r.excitations(frozen, m) - w.m.muscles[m].min_control);
+    EXPECT_EQ(r.excitations(faded + 2, m), w.m.muscles[m].min_control) << w.m.muscles[m].name;
+    EXPECT_EQ(r.excitations(last, m), w.m.muscles[m].min_control) << w.m.muscles[m].name;
+  }
+  EXPECT_GT(above_minimum, 1e-3);
 }
 
 // The tuner's extra walks and bound enter each candidate's cost: a ground step of zero height is the

@@ -11,6 +11,7 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
+#include "cpgait/gait/standing_pose.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/muscle_model.h"
@@ -333,6 +334,20 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     contacts.step_x_m = pelvis_start.x() + (pelvis_velocity_ref.x() - contacts.ground_velocity_m_s.x()) * o.ground_step_time_s;
   }
   Eigen::VectorXd e_pelvis(static_cast<Eigen::Index>(legs.pelvis_rotations.size())), ed_pelvis(e_pelvis.size());
+  // Walk -> stand: the standing pose (from the default pose, where the walk begins) the reflexes turn
+  // to once the walk froze, and the joints the standing balance moves.
+  const SimbiconLegs stand_legs = o.stop_time_s >= 0 ? simbicon_legs(model, contacts) : SimbiconLegs{};
+  Eigen::VectorXd stand_q(nq), frozen_q(nq);
+  StandingJoints stand_joints;
+  if (o.stop_time_s >= 0) {
+    Eigen::VectorXd q0(nq);
+    for (int c = 0; c < nq; ++c) q0[c] = root_translation[static_cast<std::size_t>(c)] ? x[c] : model.coordinates[c].default_value;
+    for (const PassiveJoint& p : passive) q0[p.c] = p.rest;  // where its spring holds it
+    stand_q = standing_pose(model, contacts, stand_legs, q0, contacts.ground_height_m);
+    forward_kinematics(model, stand_q.data(), push_kin);
+    motion_subspace(model, stand_q.data(), push_kin, push_S);
+    stand_joints = standing_joints(model, contacts, stand_legs, push_kin, push_S);
+  }
 
   const double dt = o.control_interval_s;
   const double body_mass_kg = model.total_mass_kg();
@@ -357,8 +372,18 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     const double tau = tau0 + std::min(frozen ? frozen_at_s : t, tracked_until) * o.speed;
     reference_at(tau, q_ref, u_ref, a_ref);
     if (o.phase_indexed_reference) template_at(cpg_phase(phase_table, neurons), q_ref, u_ref, a_ref);
+    // Standing: the share of the way from the frozen pose to the standing one (smoothstep) and its rate.
+    double stand_share = 0;
     if (frozen) {
-      u_ref.setZero();
+      if (t == frozen_at_s) frozen_q = q_ref;
+      const double s = o.stand_blend_s > 0 ? std::min(1.0, (t - frozen_at_s) / o.stand_blend_s) : 1.0;
+      stand_share = s * s * (3 - 2 * s);
+      const double rate = s < 1 ? 6 * s * (1 - s) / o.stand_blend_s : 0.0;
+      for (int c = 0; c < nq; ++c)
+        if (!root_translation[static_cast<std::size_t>(c)]) {
+          q_ref[c] = frozen_q[c] + stand_share * (stand_q[c] - frozen_q[c]);
+          u_ref[c] = rate * (stand_q[c] - frozen_q[c]);
+        }
       a_ref.setZero();
       contacts.ground_velocity_m_s = moving_share(t) * belt_velocity;
     }
@@ -453,17 +478,24 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       }
     }
     u_in = signals.empty() ? Eigen::VectorXd::Zero(network.size()) : Eigen::VectorXd(cpg.feedback_gains * sig);
-    if (!frozen) matsuoka_step(network, neurons, dt, u_in, scratch);  // frozen: its excitations hold
+    if (!frozen) matsuoka_step(network, neurons, dt, u_in, scratch);  // frozen: it stops
     cpg_excitation_now();
+    if (frozen) {
+      const double keep = o.stand_fade_s > 0 ? std::max(0.0, 1 - (t - frozen_at_s) / o.stand_fade_s) : 0.0;
+      for (int m = 0; m < nm; ++m) excitation[m] = model.muscles[m].min_control + keep * (excitation[m] - model.muscles[m].min_control);
+    }
     if (o.reflex_kp != 0 || o.reflex_kv != 0) {
       Eigen::VectorXd e = q_ref - x.head(nq), ed = u_ref - x.segment(nq, nq);
       if (legs.valid()) {
         forward_kinematics(model, q_ref.data(), reference_kin);
         for (std::size_t i = 0; i < legs.pelvis_rotations.size(); ++i)
           e_pelvis[static_cast<Eigen::Index>(i)] = e[legs.pelvis_rotations[i]], ed_pelvis[static_cast<Eigen::Index>(i)] = ed[legs.pelvis_rotations[i]];
-        simbicon_balance_feedback(contacts, legs, o.balance, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), reference_kin, e_pelvis,
+        SimbiconGains gains = o.balance;
+        gains.trunk_kp *= 1 - stand_share, gains.trunk_kv *= 1 - stand_share;
+        simbicon_balance_feedback(contacts, legs, gains, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), reference_kin, e_pelvis,
                                   ed_pelvis, moving_share(t) * pelvis_velocity_ref, ws.contact_force_N, kContactThresholdN, e, ed);
       }
+      if (frozen) standing_balance_feedback(model, contacts, stand_legs, stand_joints, o.standing, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), 1.0, e);
       for (int c : root) e[c] = ed[c] = 0;
       const Eigen::VectorXd drive = ws.geometry.moment_arm_m * (o.reflex_kp * e + o.reflex_kv * ed);
       for (int m = 0; m < nm; ++m)
@@ -542,14 +574,19 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   }
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
   r.frozen_at_s = frozen_at_s;
-  if (o.stop_time_s >= 0 && r.fell_at_s < 0 && !rec_pelvis_speed.empty()) {
-    int i = static_cast<int>(rec_pelvis_speed.size());
-    while (i > 0 && rec_pelvis_speed[static_cast<std::size_t>(i - 1)] < 0.1 && r.time_s[static_cast<std::size_t>(i - 1)] >= o.stop_time_s) --i;
-    if (i < static_cast<int>(rec_pelvis_speed.size())) {
-      r.stopped_at_s = r.time_s[static_cast<std::size_t>(i)];
-      int j = i;
-      while (j < static_cast<int>(rec_com_supported.size()) && rec_com_supported[static_cast<std::size_t>(j)]) ++j;
-      r.stood_s = r.time_s[static_cast<std::size_t>(j - (j > i ? 1 : 0))] - r.stopped_at_s;
+  // The stand: the longest stretch after the freeze with the pelvis at rest (under 0.1 m/s over the
+  // ground) and the centre of mass over the feet; it begins when the model came to rest.
+  if (frozen_at_s >= 0 && r.fell_at_s < 0) {
+    std::size_t begin = 0;
+    bool standing = false;
+    for (std::size_t i = 0; i <= rec_pelvis_speed.size(); ++i) {
+      const bool now = i < rec_pelvis_speed.size() && r.time_s[i] >= frozen_at_s && rec_pelvis_speed[i] < 0.1 && rec_com_supported[i];
+      if (now && !standing) begin = i;
+      if (!now && standing && r.time_s[i - 1] - r.time_s[begin] >= r.stood_s) {
+        r.stopped_at_s = r.time_s[begin];
+        r.stood_s = r.time_s[i - 1] - r.time_s[begin];
+      }
+      standing = now;
     }
   }
   if (o.pelvis_residuals && ns > 0) {

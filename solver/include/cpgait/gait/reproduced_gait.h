@@ -23,6 +23,7 @@
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/simbicon_balance.h"
+#include "cpgait/gait/standing_balance.h"
 #include "cpgait/model/model.h"
 #include "cpgait/progress.h"
 
@@ -89,11 +90,16 @@ struct ReproducedGaitOptions {
   // the trial's mean speed overground. The trial is taken to walk along ground x.
   double ground_step_m = 0, ground_step_time_s = 5;
   // Walk -> stand: from stop_time_s (s; < 0: never) the walk goes on until the cycle's phase (the
-  // CPG's; 0 at its foot's heel strike) reaches stop_phase, then freezes there: the CPG stops, its
-  // excitations hold, the reflexes hold the reference's pose at that phase at rest, and a treadmill's
-  // belt slows to a halt over stop_over_s (s; <= 0: 0.3). Frozen late in its foot's swing (default
-  // 0.95) the foot lands ahead and the model stands in a stride (the stop's test gives what was tried).
-  double stop_time_s = -1, stop_over_s = 0, stop_phase = 0.95;
+  // CPG's; 0 at its foot's heel strike) reaches stop_phase, then stops there. The CPG stops and its
+  // excitations fade to the muscles' minimum over stand_fade_s (s; default 0.3); the reflexes' targets
+  // turn from the pose at that phase to a standing pose (standing_pose.h) over stand_blend_s (s;
+  // default 0.3), the trunk feedback fading out alike; the standing balance (standing_balance.h,
+  // gains `standing`) acts from the stop on; a treadmill's belt slows to a halt over stop_over_s (s;
+  // <= 0: 0.3). Stopped at the CPG foot's mid-stance (default 0.3) the body is over that foot and the
+  // other one swings in beside it. The stop's test gives what was tried.
+  double stop_time_s = -1, stop_over_s = 0, stop_phase = 0.3;
+  double stand_blend_s = 0.3, stand_fade_s = 0.3;
+  StandingBalanceGains standing;
 };
 
 struct ReproducedGaitResult {
@@ -117,10 +123,10 @@ struct ReproducedGaitResult {
   double mean_residual_moment_Nm = 0;
   double fell_at_s = -1;                        // < 0: did not fall
   double distance_m = 0;                        // pelvis horizontal travel
-  // Walk -> stand (stop_time_s): when the walk froze, when the pelvis came to rest (horizontal speed
-  // over the ground below 0.1 m/s from then on; < 0: it did not), and how long it then stood with the
-  // centre of mass over the support polygon of the loaded contact spheres (a planar model's: between
-  // them along x).
+  // Walk -> stand (stop_time_s): when the walk froze, and the longest stretch after it with the
+  // pelvis at rest (horizontal speed over the ground below 0.1 m/s) and the centre of mass over the
+  // support polygon of the loaded contact spheres (a planar model's: between them along x): when it
+  // began (< 0: never) and how long it lasted.
   double frozen_at_s = -1;
   double stopped_at_s = -1, stood_s = 0;
   double solve_seconds = 0;
