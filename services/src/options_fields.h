@@ -87,16 +87,19 @@ class OptionFields {
                 },
                 [key, m](const T& o, nlohmann::json& j) { j[key] = o.*m; }});
   }
-  // A list of numbers, each within r, at most max_items of them.
+  // A list of numbers, each within r, at most max_items of them, a multiple of `group` (a vector's
+  // components one after another: 3 for x y z).
   OptionFields& number_list(std::string key, std::vector<double> T::*m, std::string unit, std::string description, NumberRange r,
-                            std::size_t max_items) {
+                            std::size_t max_items, std::size_t group = 1) {
     nlohmann::json s = {{"type", "array"}, {"items", range_schema("number", r, unit, description)}, {"maxItems", max_items}, {"description", description}};
     s["items"].erase("description");
     if (!unit.empty()) s["x-unit"] = unit;
+    if (group > 1) s["x-group"] = group;
     return add({key, s,
-                [key, m, r, unit, max_items](const nlohmann::json& v, T& o, const OptionPath& p) {
+                [key, m, r, unit, max_items, group](const nlohmann::json& v, T& o, const OptionPath& p) {
                   if (!v.is_array()) p.fail(key, "expected an array of numbers");
                   if (v.size() > max_items) p.fail(key, "expected at most " + std::to_string(max_items) + " numbers");
+                  if (v.size() % group != 0) p.fail(key, "expected a multiple of " + std::to_string(group) + " numbers, got " + std::to_string(v.size()));
                   std::vector<double> out;
                   for (std::size_t i = 0; i < v.size(); ++i) out.push_back(read_number(v[i], key + "[" + std::to_string(i) + "]", r, unit, p));
                   o.*m = out;

@@ -38,7 +38,11 @@ json other_valid_value(const json& field) {
     return lo + 0.37 * (hi - lo);
   }
   if (type == "string") return "calcn_l";
-  if (type == "array" && field.contains("items")) return json::array({other_valid_value(field["items"]), other_valid_value(field["items"])});
+  if (type == "array" && field.contains("items")) {
+    json a = json::array();  // two items, or two groups of x-group (a list of vectors' components)
+    for (int i = 0; i < 2 * field.value("x-group", 1); ++i) a.push_back(other_valid_value(field["items"]));
+    return a;
+  }
   if (type == "object" && field.contains("additionalProperties") && field["additionalProperties"].value("type", "") == "array")
     return {{"pelvis", {1.1, 1.05, 0.95}}};  // a map of triples (scale.factors)
   if (type == "object") return {{"markers", {{"R.ASIS", 4}}}};
@@ -283,7 +287,8 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
   // Fields added to a section since: their defaults.
   for (const auto& [section, field] : {std::pair<const char*, const char*>{"gait", "phase_reference"}, {"gait", "tune_evaluations"},
                                        {"gait", "tune_horizon_s"}, {"gait", "tune_rounds"}, {"gait", "speed_knobs"},
-                                       {"gait", "schedule_evaluations"}, {"gait", "tune_rotation_limit_deg"}}) {
+                                       {"gait", "schedule_evaluations"}, {"gait", "tune_rotation_limit_deg"},
+                                       {"gait", "tune_steps_m"}, {"gait", "tune_pushes_N_s"}}) {
     EXPECT_EQ(written_doc[section][field], PipelineOptions().to_json()[section][field]) << section << "." << field;
     written_doc[section].erase(field);
   }

@@ -400,6 +400,21 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
                               "/out/w_ik.mot --duration 0.5 --tune 2 --tune-pushes 0 0 -o " + dir + "/bad");
   EXPECT_EQ(bad_push.status, 2) << bad_push.output;
   EXPECT_NE(bad_push.output.find("three numbers (x y z) per push"), std::string::npos) << bad_push.output;
+  // The stage's ground steps and pushes reach the tuner: each candidate's cost is the mean over its
+  // walks, so the start's cost changes; a push needs three numbers.
+  std::ofstream(dir + "/perturbed.json")
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30]}})";
+  const CliRun perturbed = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/perturbed.json -o " + dir + "/perturbed");
+  ASSERT_EQ(perturbed.status, 0) << perturbed.output;
+  const nlohmann::json p = nlohmann::json::parse(cpgait::text::read_file(dir + "/perturbed/w_gait.json"));
+  EXPECT_EQ(p["tuning"]["steps_m"], nlohmann::json::array({-0.2}));
+  EXPECT_EQ(p["tuning"]["pushes_N_s"], nlohmann::json::array({0, 0, -30}));
+  EXPECT_GT(std::abs(p["tuning"]["cost"][0].get<double>() - gait["tuning"]["cost"][0].get<double>()), 1e-6) << p["tuning"].dump();
+  std::ofstream(dir + "/bad_push.json") << R"({"gait": {"tune_evaluations": 8, "tune_pushes_N_s": [0, 0]}})";
+  const CliRun bad_stage_push = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_push.json -o " + dir + "/bad_stage");
+  EXPECT_EQ(bad_stage_push.status, 2) << bad_stage_push.output;
+  EXPECT_NE(bad_stage_push.output.find("gait.tune_pushes_N_s"), std::string::npos) << bad_stage_push.output;
+  EXPECT_NE(bad_stage_push.output.find("a multiple of 3 numbers"), std::string::npos) << bad_stage_push.output;
   fs::remove_all(dir);
 }
 

@@ -21,6 +21,7 @@ struct GaitStageOptions {
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
   double tune_rotation_limit_deg = 0;
+  std::vector<double> tune_steps_m, tune_pushes_N_s;
   std::vector<double> speed_knobs;
   int schedule_evaluations = 0;
 
@@ -45,6 +46,14 @@ struct GaitStageOptions {
             .number("tune_rotation_limit_deg", &GaitStageOptions::tune_rotation_limit_deg, "deg",
                     "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (RMS) costs as much as a fall (0: no bound)",
                     NumberRange{0.0, 90.0})
+            .number_list("tune_steps_m", &GaitStageOptions::tune_steps_m, "m",
+                         "tuning: ground steps (negative: down) each candidate also walks over, the edge under the pelvis at half the "
+                         "horizon; their walks count in the cost as the level one's does",
+                         NumberRange{-0.2, 0.2}, 4)
+            .number_list("tune_pushes_N_s", &GaitStageOptions::tune_pushes_N_s, "N s",
+                         "tuning: pushes each candidate also walks through, impulses at the pelvis over 0.1 s at half the horizon, "
+                         "ground frame, three numbers each (x y z)",
+                         NumberRange{-200.0, 200.0}, 12, 3)
             .number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
                          "more walks, each as long as the first, at these CPG speed knobs (times the trial's cadence), the controller "
                          "scheduled for each knob where the CPG holds controllers tuned at several; their motions go to "
@@ -96,11 +105,15 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.horizon_s = o.tune_horizon_s;
   to.rounds = o.tune_rounds;
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
+  to.ground_steps_m = o.tune_steps_m;
+  for (std::size_t i = 0; i + 2 < o.tune_pushes_N_s.size(); i += 3)
+    to.pushes_N_s.emplace_back(o.tune_pushes_N_s[i], o.tune_pushes_N_s[i + 1], o.tune_pushes_N_s[i + 2]);
   const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, trial.progress);
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
                            {"horizon_s", to.horizon_s}, {"rotation_limit_deg", to.worst_rotation_limit_deg},
+                           {"steps_m", o.tune_steps_m}, {"pushes_N_s", o.tune_pushes_N_s},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;
   for (double knob : o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{}) {
