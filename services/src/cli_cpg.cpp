@@ -201,9 +201,7 @@ void run_gait(const GaitArgs& g) {
   if (g.tune > 0) {
     GaitTuningOptions to = g.tuning;
     to.evaluations = g.tune;
-    if (g.tune_pushes_N_s.size() % 3 != 0) throw InputError("--tune-pushes", 0, "tune-pushes", "expected three numbers (x y z) per push");
-    for (std::size_t i = 0; i + 2 < g.tune_pushes_N_s.size(); i += 3)
-      to.pushes_N_s.emplace_back(g.tune_pushes_N_s[i], g.tune_pushes_N_s[i + 1], g.tune_pushes_N_s[i + 2]);
+    if (!to.set_pushes(g.tune_pushes_N_s)) throw InputError("--tune-pushes", 0, "tune-pushes", "expected three numbers (x y z) per push");
     const GaitTuningResult tuned = tune_gait_controller(model, cpg, kin, contacts, o, to);
     driving = tuned.cpg;
     write_text_atomic(g.out + "_cpg_tuned.json", json_text(driving.to_json(), 2) + "\n");

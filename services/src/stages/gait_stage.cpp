@@ -106,8 +106,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.rounds = o.tune_rounds;
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.ground_steps_m = o.tune_steps_m;
-  for (std::size_t i = 0; i + 2 < o.tune_pushes_N_s.size(); i += 3)
-    to.pushes_N_s.emplace_back(o.tune_pushes_N_s[i], o.tune_pushes_N_s[i + 1], o.tune_pushes_N_s[i + 2]);
+  to.set_pushes(o.tune_pushes_N_s);  // the option's reader refused lists that are not triples
   const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, trial.progress);
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},

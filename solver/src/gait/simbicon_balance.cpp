@@ -8,19 +8,30 @@ namespace cpgait {
 
 namespace {
 
-Eigen::Vector3d sphere_centre(const KinematicsWorkspace<double>& kin, const ContactSphere& s) {
-  const auto& X = kin.body_in_ground[s.body];
-  return X.rotation * s.location_m + X.translation_m;
-}
-
 // The mean centre of a side's spheres (ground frame).
 Eigen::Vector3d foot_point(const ContactSet& contacts, const std::vector<int>& spheres, const KinematicsWorkspace<double>& kin) {
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
-  for (int s : spheres) p += sphere_centre(kin, contacts.spheres[s]);
+  for (int s : spheres) p += sphere_centre_m(kin, contacts.spheres[s]);
   return p / static_cast<double>(spheres.size());
 }
 
 }  // namespace
+
+Eigen::Vector3d sphere_centre_m(const KinematicsWorkspace<double>& kin, const ContactSphere& s) {
+  const auto& X = kin.body_in_ground[s.body];
+  return X.rotation * s.location_m + X.translation_m;
+}
+
+Eigen::Vector3d horizontal_heading(const KinematicsWorkspace<double>& kin, int body) {
+  Eigen::Vector3d along = kin.body_in_ground[body].rotation.col(0);
+  along.y() = 0;
+  return along.norm() > 1e-9 ? Eigen::Vector3d(along.normalized()) : Eigen::Vector3d::UnitX();
+}
+
+bool SimbiconLegs::is_root(int c) const {
+  return std::find(pelvis_rotations.begin(), pelvis_rotations.end(), c) != pelvis_rotations.end() ||
+         std::find(pelvis_translations.begin(), pelvis_translations.end(), c) != pelvis_translations.end();
+}
 
 int side_of(const std::string& name) {
   if (name.size() >= 2 && name.compare(name.size() - 2, 2, "_r") == 0) return 0;
@@ -76,9 +87,7 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
   for (int c : legs.pelvis_rotations) v += point_velocity_column(S, c, pelvis) * u[c];
   for (int c : legs.pelvis_translations) v += point_velocity_column(S, c, pelvis) * u[c];
   // Along and across the reference pelvis' heading (its x axis, horizontal).
-  Eigen::Vector3d along = reference_kin.body_in_ground[legs.pelvis_body].rotation.col(0);
-  along.y() = 0;
-  along = along.norm() > 1e-9 ? along.normalized() : Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d along = horizontal_heading(reference_kin, legs.pelvis_body);
   const Eigen::Vector3d across = along.cross(Eigen::Vector3d::UnitY());
   const Eigen::Vector3d dv = v - v_ref;
   const Eigen::Vector3d shift = along * (g.sagittal_d * d_error.dot(along) + g.sagittal_v * dv.dot(along)) +

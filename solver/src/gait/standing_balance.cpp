@@ -7,24 +7,6 @@ namespace cpgait {
 
 namespace {
 
-// The pelvis' heading (its x axis, horizontal) and the direction across it.
-void heading(const KinematicsWorkspace<double>& kin, const SimbiconLegs& legs, Eigen::Vector3d& along, Eigen::Vector3d& across) {
-  along = kin.body_in_ground[legs.pelvis_body].rotation.col(0);
-  along.y() = 0;
-  along = along.norm() > 1e-9 ? along.normalized() : Eigen::Vector3d::UnitX();
-  across = along.cross(Eigen::Vector3d::UnitY());
-}
-
-Eigen::Vector3d sphere_centre(const KinematicsWorkspace<double>& kin, const ContactSphere& s) {
-  const auto& X = kin.body_in_ground[s.body];
-  return X.rotation * s.location_m + X.translation_m;
-}
-
-bool is_root(const SimbiconLegs& legs, int c) {
-  return std::find(legs.pelvis_rotations.begin(), legs.pelvis_rotations.end(), c) != legs.pelvis_rotations.end() ||
-         std::find(legs.pelvis_translations.begin(), legs.pelvis_translations.end(), c) != legs.pelvis_translations.end();
-}
-
 // How far the pelvis moves along `direction` per unit of coordinate c, its foot held: the ankle turns
 // the body above it as one (about the joint's axis, the pelvis with it); a hip swings the leg under a
 // level pelvis, which moves as the foot would have, reversed.
@@ -41,8 +23,7 @@ StandingJoints standing_joints(const Model& model, const ContactSet& contacts, c
   j.body_coordinates.resize(model.bodies.size());
   for (std::size_t b = 1; b < model.bodies.size(); ++b) j.body_coordinates[b] = ancestor_coordinates(model, static_cast<int>(b));
   if (!legs.valid()) return j;
-  Eigen::Vector3d along, across;
-  heading(kin, legs, along, across);
+  const Eigen::Vector3d along = horizontal_heading(kin, legs.pelvis_body), across = along.cross(Eigen::Vector3d::UnitY());
   for (int side = 0; side < 2; ++side) {
     // The foot: the side's sphere-carrying body nearest the pelvis.
     int foot = -1;
@@ -52,7 +33,7 @@ StandingJoints standing_joints(const Model& model, const ContactSet& contacts, c
     }
     const auto& hip = legs.hip[side];
     for (int c : j.body_coordinates[foot]) {  // root first: the last match is nearest the foot
-      if (is_root(legs, c) || std::find(hip.begin(), hip.end(), c) != hip.end() || !model.coordinates[c].is_angle()) continue;
+      if (legs.is_root(c) || std::find(hip.begin(), hip.end(), c) != hip.end() || !model.coordinates[c].is_angle()) continue;
       const Eigen::Vector3d w = S.columns.col(c).head<3>();
       if (w.norm() > 1e-9 && std::abs(w.normalized().dot(across)) > std::sqrt(0.5)) j.ankle[side] = c;
     }
@@ -86,13 +67,12 @@ void standing_balance_feedback(const Model& model, const ContactSet& contacts, c
   Eigen::Vector3d middle = Eigen::Vector3d::Zero(), foot[2];
   for (int side = 0; side < 2; ++side) {
     foot[side].setZero();
-    for (int s : legs.spheres[side]) foot[side] += sphere_centre(kin, contacts.spheres[s]);
+    for (int s : legs.spheres[side]) foot[side] += sphere_centre_m(kin, contacts.spheres[s]);
     foot[side] /= static_cast<double>(legs.spheres[side].size());
     middle += 0.5 * foot[side];
   }
   const double h = std::max(0.1, com.y() - middle.y());
-  Eigen::Vector3d along, across;
-  heading(kin, legs, along, across);
+  const Eigen::Vector3d along = horizontal_heading(kin, legs.pelvis_body), across = along.cross(Eigen::Vector3d::UnitY());
   const double lean_along = (com - middle).dot(along) / h, rate_along = v.dot(along) / h;
   const double lean_across = (com - middle).dot(across) / h, rate_across = v.dot(across) / h;
   const double back = share * (g.ankle_kp * lean_along + g.ankle_kv * rate_along);

@@ -15,13 +15,9 @@ Eigen::VectorXd standing_pose(const Model& model, const ContactSet& contacts, co
   KinematicsWorkspace<double> kin(model);
   forward_kinematics(model, q.data(), kin);
   auto lowest = [&](const KinematicsWorkspace<double>& k, int s) {
-    const ContactSphere& sp = contacts.spheres[s];
-    const auto& X = k.body_in_ground[sp.body];
-    return Eigen::Vector3d(X.rotation * sp.location_m + X.translation_m - sp.radius_m * Eigen::Vector3d::UnitY());
+    return Eigen::Vector3d(sphere_centre_m(k, contacts.spheres[s]) - contacts.spheres[s].radius_m * Eigen::Vector3d::UnitY());
   };
-  Eigen::Vector3d along = kin.body_in_ground[legs.pelvis_body].rotation.col(0);
-  along.y() = 0;
-  along = along.norm() > 1e-9 ? along.normalized() : Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d along = horizontal_heading(kin, legs.pelvis_body);
   // Each foot's rearmost and foremost spheres and its heading at the start; the unknowns.
   int rear[2], front[2];
   Eigen::Vector3d across0[2];
@@ -36,10 +32,8 @@ Eigen::VectorXd standing_pose(const Model& model, const ContactSet& contacts, co
     d.y() = 0;
     across0[side] = (d.norm() > 1e-6 ? d.normalized() : along).cross(Eigen::Vector3d::UnitY());
     for (int c : ancestor_coordinates(model, contacts.spheres[rear[side]].body)) {
-      const bool root = std::find(legs.pelvis_rotations.begin(), legs.pelvis_rotations.end(), c) != legs.pelvis_rotations.end() ||
-                        std::find(legs.pelvis_translations.begin(), legs.pelvis_translations.end(), c) != legs.pelvis_translations.end();
       const bool dependent = std::any_of(model.couplers.begin(), model.couplers.end(), [c](const CoordinateCoupler& k) { return k.dependent == c; });
-      if (!root && !dependent && !model.coordinates[c].locked && std::find(unknowns.begin(), unknowns.end(), c) == unknowns.end())
+      if (!legs.is_root(c) && !dependent && !model.coordinates[c].locked && std::find(unknowns.begin(), unknowns.end(), c) == unknowns.end())
         unknowns.push_back(c);
     }
   }

@@ -52,6 +52,13 @@ CpgController untuned_controller() {
 
 }  // namespace
 
+bool GaitTuningOptions::set_pushes(const std::vector<double>& xyz_N_s) {
+  if (xyz_N_s.size() % 3 != 0) return false;
+  pushes_N_s.clear();
+  for (std::size_t i = 0; i + 2 < xyz_N_s.size(); i += 3) pushes_N_s.emplace_back(xyz_N_s[i], xyz_N_s[i + 1], xyz_N_s[i + 2]);
+  return true;
+}
+
 GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& contacts,
                                       const ReproducedGaitOptions& options, const GaitTuningOptions& t, Progress* progress) {
   const auto t0 = std::chrono::steady_clock::now();

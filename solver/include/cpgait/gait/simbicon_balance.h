@@ -38,12 +38,19 @@ struct SimbiconLegs {
   std::vector<int> hip[2];                // coordinates of each side's hip (0 right, 1 left)
   std::vector<int> spheres[2];            // each side's contact spheres
   bool valid() const { return pelvis_body > 0 && !hip[0].empty() && !hip[1].empty() && !spheres[0].empty() && !spheres[1].empty(); }
+  bool is_root(int c) const;              // one of the root's coordinates
 };
 
 // 0 for a name ending in _r, 1 for _l, -1 otherwise.
 int side_of(const std::string& name);
 
 SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts);
+
+// A contact sphere's centre (m, ground frame) in the pose kin holds.
+Eigen::Vector3d sphere_centre_m(const KinematicsWorkspace<double>& kin, const ContactSphere& s);
+
+// A body's heading: its x axis made horizontal and unit (ground x where it points straight up or down).
+Eigen::Vector3d horizontal_heading(const KinematicsWorkspace<double>& kin, int body);
 
 // Adds the balance feedback to the reflex's joint errors e (rad) and ed (rad/s), all coordinates.
 // kin/S: the state's kinematics; u: its speeds; reference_kin: the reference pose's kinematics;

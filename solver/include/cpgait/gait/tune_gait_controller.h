@@ -44,6 +44,8 @@ struct GaitTuningOptions {
   // Pushes (impulses at the pelvis, N s, ground frame, over 0.1 s at half the horizon) each candidate
   // also walks through, counted as the ground steps are (default: none).
   std::vector<Eigen::Vector3d> pushes_N_s;
+  // Sets pushes_N_s from x y z triples one after another; false (unchanged) unless a multiple of 3.
+  bool set_pushes(const std::vector<double>& xyz_N_s);
   // CMA-ES runs this many times, each from the last one's best with a fresh step size, their horizons
   // rising evenly to horizon_s and the evaluations shared (default 1): short walks first, which are
   // cheap. On subject01 from the untuned start, 3 rounds to 15 s walked 11.4 s after 1,200
