@@ -262,6 +262,10 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--tune-rounds", g->tuning.rounds, "CMA-ES restarts from the last best, horizons rising evenly to --tune-horizon")
       ->check(CLI::Range(1, 10))
       ->capture_default_str();
+  gait->add_option("--tune-sigma", g->tuning.initial_step,
+                   "CMA-ES' initial step size (1: a factor e in a gain, a trunk share of 1); smaller refines a tuned controller, e.g. 0.15")
+      ->check(CLI::Range(0.01, 3.0))
+      ->capture_default_str();
   gait->add_option("--tune-speeds", g->tuning.speeds, "speed knobs each tuning candidate walks at (its cost their mean), e.g. 0.8 1 1.2")
       ->check(CLI::Range(0.2, 5.0))
       ->capture_default_str();

@@ -453,26 +453,57 @@ TEST(ReproducedGait, StopTurnsTheWalkToTheStandingPose) {
   EXPECT_GT(above_minimum, 1e-3);
 }
 
+namespace {
+
+// Short tunings on the still walker: one thread, 0.3 s walks from its heel strike at 0.5 s.
+struct QuickTuning {
+  StillWalker w;
+  ReproducedGaitOptions o;
+  GaitTuningOptions t;
+  QuickTuning(int evaluations) {
+    o.start_time_s = 0.5;
+    t.evaluations = evaluations;
+    t.horizon_s = 0.3;
+    t.num_threads = 1;
+  }
+  GaitTuningResult tune(const GaitTuningOptions& options) const { return tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, options); }
+};
+
+}  // namespace
+
 // The tuner's extra walks and bound enter each candidate's cost: a ground step of zero height is the
 // level walk again (the cost unchanged), a bound on the worst rotation far above it changes nothing,
 // one far below it costs more than a fall.
 TEST(GaitTuning, GroundStepsAndTheRotationBoundEnterTheCost) {
-  StillWalker w;
-  ReproducedGaitOptions o;
-  o.start_time_s = 0.5;
-  GaitTuningOptions t;
-  t.evaluations = 2;
-  t.horizon_s = 0.3;
-  t.num_threads = 1;
-  const double level = tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, t).summary.start_cost;
-  GaitTuningOptions flat_step = t;
+  const QuickTuning q(2);
+  const double level = q.tune(q.t).summary.start_cost;
+  GaitTuningOptions flat_step = q.t;
   flat_step.ground_steps_m = {0.0};
-  EXPECT_NEAR(tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, flat_step).summary.start_cost, level, 1e-12);
-  GaitTuningOptions loose = t, tight = t;
+  EXPECT_NEAR(q.tune(flat_step).summary.start_cost, level, 1e-12);
+  GaitTuningOptions loose = q.t, tight = q.t;
   loose.worst_rotation_limit_deg = 1e6;
   tight.worst_rotation_limit_deg = 1e-6;
-  EXPECT_NEAR(tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, loose).summary.start_cost, level, 1e-12);
-  EXPECT_GT(tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, tight).summary.start_cost, level + t.fall_weight);
+  EXPECT_NEAR(q.tune(loose).summary.start_cost, level, 1e-12);
+  EXPECT_GT(q.tune(tight).summary.start_cost, level + q.t.fall_weight);
+}
+
+// CMA-ES' initial step size reaches the search: the same seeded search moves the reflex gain by a
+// factor about e^0.5 at the default step and by under 1 % at a step of 0.001 (a refinement's); a step
+// that is not positive is refused.
+TEST(GaitTuning, InitialStepSizesTheSearch) {
+  const QuickTuning q(8);
+  auto kp_moved = [&](double step) {
+    GaitTuningOptions t = q.t;
+    t.initial_step = step;
+    return std::abs(std::log(q.tune(t).cpg.controller->reflex_kp / 100.0));  // the untuned start's 100
+  };
+  const double wide = kp_moved(0.5), narrow = kp_moved(1e-3);
+  std::printf("[info] |log(kp / kp0)| after 8 simulations: %.4f at step 0.5, %.6f at 0.001\n", wide, narrow);
+  EXPECT_GT(wide, 0.05);
+  EXPECT_LT(narrow, 0.01);
+  GaitTuningOptions zero = q.t;
+  zero.initial_step = 0;
+  EXPECT_THROW(q.tune(zero), std::invalid_argument);
 }
 
 // Joints no muscle crosses (the walker's back) are held at the trial's mean as a locked joint would

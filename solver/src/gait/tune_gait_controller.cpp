@@ -71,6 +71,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   }
   if (t.speeds.empty()) throw std::invalid_argument("tune_gait_controller: no speeds to walk at");
   if (t.rounds < 1) throw std::invalid_argument("tune_gait_controller: rounds must be at least 1");
+  if (!(t.initial_step > 0)) throw std::invalid_argument("tune_gait_controller: the initial step must be positive");
   std::vector<int> rotations;
   for (int c = 0; c < model.num_coordinates(); ++c)
     if (model.coordinates[c].is_angle()) rotations.push_back(c);
@@ -145,7 +146,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     double round_start_walked = walked;
     const double round_start_cost = t.rounds == 1 ? cost : score(decode(x0, from, base), &round_start_walked, true);
     CmaEsOptions co;
-    co.initial_sigma = 0.5;
+    co.initial_sigma = t.initial_step;
     co.max_evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
     co.num_threads = t.num_threads;
     co.seed = t.seed + static_cast<unsigned long long>(round);
