@@ -52,10 +52,8 @@ struct GaitTuningOptions {
   // simulations and the whole 15 s after 2,000 (the pipeline, 589 s) - measured; a single round of
   // the same budget was not compared.
   int rounds = 1;
-  // CMA-ES' initial step size in the searched parameters (see tune_gait_controller.cpp: 1 is a factor
-  // e in a reflex gain, a trunk share of 1; default 0.5). Smaller refines a tuned controller: from
-  // subject01's controller tuned over ground steps, 1,000 simulations at 0.5 found nothing better
-  // (twice), at 0.15 its cost fell 0.442 -> 0.166 (measured).
+  // CMA-ES' initial step size in the searched parameters (1: a factor e in a reflex gain, a trunk
+  // share of 1; default 0.5); smaller (0.15) refines a controller already tuned.
   double initial_step = 0.5;
   int num_threads = 0;          // simulations in parallel; 0: every core
   unsigned long long seed = 1;
