@@ -104,6 +104,11 @@ ContactSet read_contact_set(const std::string& path, const Model& model) {
   return parse_contact_set_json(text::read_file(path), path, model);
 }
 
+Eigen::Vector3d sphere_centre_m(const KinematicsWorkspace<double>& kin, const ContactSphere& s) {
+  const auto& B = kin.body_in_ground[static_cast<std::size_t>(s.body)];
+  return B.rotation * s.location_m + B.translation_m;
+}
+
 std::vector<Eigen::Vector3d> sphere_centres_over_poses(const Model& model, const ContactSet& set, const Eigen::MatrixXd& q) {
   KinematicsWorkspace<double> kws(model);
   const std::size_t ns = set.spheres.size();
@@ -111,10 +116,7 @@ std::vector<Eigen::Vector3d> sphere_centres_over_poses(const Model& model, const
   for (int i = 0; i < q.rows(); ++i) {
     const Eigen::VectorXd qi = q.row(i).transpose();
     forward_kinematics(model, qi.data(), kws);
-    for (std::size_t s = 0; s < ns; ++s) {
-      const auto& B = kws.body_in_ground[static_cast<std::size_t>(set.spheres[s].body)];
-      centre[static_cast<std::size_t>(i) * ns + s] = B.rotation * set.spheres[s].location_m + B.translation_m;
-    }
+    for (std::size_t s = 0; s < ns; ++s) centre[static_cast<std::size_t>(i) * ns + s] = sphere_centre_m(kws, set.spheres[s]);
   }
   return centre;
 }
@@ -194,10 +196,7 @@ ContactSet default_foot_contacts(const Model& model) {
   Eigen::VectorXd q(model.num_coordinates());
   for (int c = 0; c < model.num_coordinates(); ++c) q[c] = model.coordinates[static_cast<std::size_t>(c)].default_value;
   forward_kinematics(model, q.data(), kws);
-  auto bottom = [&](const ContactSphere& s) {
-    const auto& B = kws.body_in_ground[static_cast<std::size_t>(s.body)];
-    return (B.rotation * s.location_m + B.translation_m).y() - s.radius_m;
-  };
+  auto bottom = [&](const ContactSphere& s) { return sphere_centre_m(kws, s).y() - s.radius_m; };
   for (std::size_t i = 0; i + 1 < set.spheres.size(); i += 2) {
     ContactSphere& toe = set.spheres[i + 1];
     const double rise_m = bottom(set.spheres[i]) - bottom(toe);

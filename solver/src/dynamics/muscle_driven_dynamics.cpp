@@ -64,8 +64,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
     const ContactSet& set = *sys.contacts;
     for (std::size_t i = 0; i < set.spheres.size(); ++i) {
       const ContactSphere& s = set.spheres[i];
-      const auto& B = fd.kinematics.body_in_ground[s.body];
-      const Eigen::Vector3d centre = B.rotation * s.location_m + B.translation_m;
+      const Eigen::Vector3d centre = sphere_centre_m(fd.kinematics, s);
       // Applied at the contact point below the centre (the sphere's lowest point, not below ground),
       // and slipping at that point's velocity: a rolling foot does not slip. The centre's velocity
       // differs from it by omega x r - on subject01's heel and toe rockers 0.1-0.2 m/s, enough for

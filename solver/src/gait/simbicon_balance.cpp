@@ -17,11 +17,6 @@ Eigen::Vector3d foot_point(const ContactSet& contacts, const std::vector<int>& s
 
 }  // namespace
 
-Eigen::Vector3d sphere_centre_m(const KinematicsWorkspace<double>& kin, const ContactSphere& s) {
-  const auto& X = kin.body_in_ground[s.body];
-  return X.rotation * s.location_m + X.translation_m;
-}
-
 Eigen::Vector3d horizontal_heading(const KinematicsWorkspace<double>& kin, int body) {
   Eigen::Vector3d along = kin.body_in_ground[body].rotation.col(0);
   along.y() = 0;

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/model/model.h"
 
 namespace cpgait {
@@ -39,6 +40,9 @@ struct ContactSet {
   double step_height_m = 0, step_x_m = 0, step_edge_m = 0.005;
   std::vector<ContactSphere> spheres;
 };
+
+// A sphere's centre (m, ground frame) in the pose kin holds.
+Eigen::Vector3d sphere_centre_m(const KinematicsWorkspace<double>& kin, const ContactSphere& s);
 
 // The ground's height (m, ground y) at ground x (m) and time t (s).
 double ground_height_at(const ContactSet& set, double x_m, double t_s);

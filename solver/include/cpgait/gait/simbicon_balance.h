@@ -46,9 +46,6 @@ int side_of(const std::string& name);
 
 SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts);
 
-// A contact sphere's centre (m, ground frame) in the pose kin holds.
-Eigen::Vector3d sphere_centre_m(const KinematicsWorkspace<double>& kin, const ContactSphere& s);
-
 // A body's heading: its x axis made horizontal and unit (ground x where it points straight up or down).
 Eigen::Vector3d horizontal_heading(const KinematicsWorkspace<double>& kin, int body);
 
