@@ -270,12 +270,21 @@ void add_gait_command(CLI::App& app) {
       ->check(CLI::Range(0.2, 5.0))
       ->capture_default_str();
   gait->add_option("--tune-steps", g->tuning.ground_steps_m,
-                   "ground steps (m, negative: down) each tuning candidate also walks over, the edge under the pelvis at half the horizon, "
+                   "ground steps (m, negative: down) each tuning candidate also walks over, the edge under the pelvis at half the horizon (or --tune-step-at), "
                    "e.g. -0.02 0.01")
       ->check(CLI::Range(-0.2, 0.2));
   gait->add_option("--tune-pushes", g->tune_pushes_N_s,
                    "pushes each tuning candidate also walks through, impulses at the pelvis over 0.1 s at half the horizon, N s, "
                    "ground frame, three numbers each (x y z)");
+  gait->add_option("--tune-step-at", g->tuning.ground_step_at,
+                   "where each tuning ground step's edge reaches the pelvis, fractions of the horizon: each step is walked at each, "
+                   "e.g. 0.45 0.5 0.55")
+      ->check(CLI::Range(0.01, 0.99))
+      ->capture_default_str();
+  gait->add_option("--tune-tolerances", g->tuning.integrator_tolerances,
+                   "integrator tolerances every tuning walk is taken at (each one more simulation), so the controller walks by its "
+                   "own stability, not one tolerance's integration error, e.g. 5e-4 2e-3 (default: --tolerance alone)")
+      ->check(CLI::Range(1e-8, 0.1));
   gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,
                    "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (deg RMS) costs as much as a fall")
       ->check(CLI::Range(0.0, 90.0));

@@ -389,7 +389,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   // Tuned again at knob 0.8 (over a ground step and through a push too, the worst rotation bounded),
   // the CPG keeps its controller and its schedule entry there is replaced.
   const CliRun retune = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
-                            "/out/w_ik.mot --duration 0.5 --speed 0.8 --tune 4 --tune-horizon 0.5 --tune-steps -0.01 --tune-pushes 0 0 -1 --tune-rotation-limit 5 -o " +
+                            "/out/w_ik.mot --duration 0.5 --speed 0.8 --tune 4 --tune-horizon 0.5 --tune-steps -0.01 --tune-pushes 0 0 -1 --tune-step-at 0.4 0.6 --tune-tolerances 2e-3 --tune-rotation-limit 5 -o " +
                             dir + "/k08");
   ASSERT_EQ(retune.status, 0) << retune.output;
   const nlohmann::json scheduled = nlohmann::json::parse(cpgait::text::read_file(dir + "/k08_cpg_tuned.json"));
@@ -400,21 +400,27 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
                               "/out/w_ik.mot --duration 0.5 --tune 2 --tune-pushes 0 0 -o " + dir + "/bad");
   EXPECT_EQ(bad_push.status, 2) << bad_push.output;
   EXPECT_NE(bad_push.output.find("three numbers (x y z) per push"), std::string::npos) << bad_push.output;
-  // The stage's ground steps and pushes reach the tuner: each candidate's cost is the mean over its
-  // walks, so the start's cost changes; a push needs three numbers.
+  // The stage's ground steps, pushes and tolerances reach the tuner: each candidate's cost is the mean
+  // over its walks, so the start's cost changes; a push needs three numbers, a tolerance is positive.
   std::ofstream(dir + "/perturbed.json")
-      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30]}})";
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7]}})";
   const CliRun perturbed = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/perturbed.json -o " + dir + "/perturbed");
   ASSERT_EQ(perturbed.status, 0) << perturbed.output;
   const nlohmann::json p = nlohmann::json::parse(cpgait::text::read_file(dir + "/perturbed/w_gait.json"));
   EXPECT_EQ(p["tuning"]["steps_m"], nlohmann::json::array({-0.2}));
   EXPECT_EQ(p["tuning"]["pushes_N_s"], nlohmann::json::array({0, 0, -30}));
+  EXPECT_EQ(p["tuning"]["tolerances"], nlohmann::json::array({1e-3, 1e-2}));
+  EXPECT_EQ(p["tuning"]["step_at"], nlohmann::json::array({0.3, 0.7}));
   EXPECT_GT(std::abs(p["tuning"]["cost"][0].get<double>() - gait["tuning"]["cost"][0].get<double>()), 1e-6) << p["tuning"].dump();
   std::ofstream(dir + "/bad_push.json") << R"({"gait": {"tune_evaluations": 8, "tune_pushes_N_s": [0, 0]}})";
   const CliRun bad_stage_push = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_push.json -o " + dir + "/bad_stage");
   EXPECT_EQ(bad_stage_push.status, 2) << bad_stage_push.output;
   EXPECT_NE(bad_stage_push.output.find("gait.tune_pushes_N_s"), std::string::npos) << bad_stage_push.output;
   EXPECT_NE(bad_stage_push.output.find("a multiple of 3 numbers"), std::string::npos) << bad_stage_push.output;
+  std::ofstream(dir + "/bad_tolerance.json") << R"({"gait": {"tune_evaluations": 8, "tune_tolerances": [0]}})";
+  const CliRun bad_tolerance = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_tolerance.json -o " + dir + "/bad_tol");
+  EXPECT_EQ(bad_tolerance.status, 2) << bad_tolerance.output;
+  EXPECT_NE(bad_tolerance.output.find("gait.tune_tolerances"), std::string::npos) << bad_tolerance.output;
   fs::remove_all(dir);
 }
 

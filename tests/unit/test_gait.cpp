@@ -487,6 +487,54 @@ TEST(GaitTuning, GroundStepsAndTheRotationBoundEnterTheCost) {
   EXPECT_GT(q.tune(tight).summary.start_cost, level + q.t.fall_weight);
 }
 
+// Each ground step is walked at each place (a fraction of the horizon), the cost their mean; a place
+// outside the horizon is refused. Why: subject01's controller tuned with its steps at 5 s of 10
+// walked the 1 cm step up there and fell with either step at 4.5 or 5.5 s, at every tolerance.
+// Tuned on from it with the steps at 4.5, 5 and 5.5 s (600 + 400 simulations), it walked 10 s over
+// both steps at 4.5 and 5.5 s and up at 5 s; down at 5 s it fell at 7.3 s (measured, at 1e-3).
+TEST(GaitTuning, GroundStepPlacesEnterTheCost) {
+  QuickTuning q(2);
+  // The still walker on a belt: the step's edge passes under its feet, sooner the earlier its place.
+  q.w.feet.ground_velocity_m_s = Eigen::Vector3d(-0.5, 0, 0);
+  const double level = q.tune(q.t).summary.start_cost;
+  auto start_cost = [&](std::vector<double> at) {
+    GaitTuningOptions t = q.t;
+    t.ground_steps_m = {-0.05};
+    t.ground_step_at = std::move(at);
+    return q.tune(t).summary.start_cost;
+  };
+  // The walks' costs: the level one and the step's at each place, their mean the candidate's.
+  const double early = 2 * start_cost({0.1}) - level, late = 2 * start_cost({0.9}) - level;
+  std::printf("[info] a 5 cm step down at 0.1 and 0.9 of the horizon: walks cost %.6f, %.6f (level %.6f)\n", early, late, level);
+  EXPECT_GT(std::abs(early - late), 1e-6);  // the walks differ
+  EXPECT_NEAR(start_cost({0.1, 0.9}), (level + early + late) / 3, 1e-12);
+  EXPECT_THROW(start_cost({0.0}), std::invalid_argument);
+  EXPECT_THROW(start_cost({1.0}), std::invalid_argument);
+  EXPECT_THROW(start_cost({}), std::invalid_argument);
+}
+
+// Each walk is taken at each integrator tolerance, the cost their mean: the gait's own tolerance
+// alone is the untouched cost, two tolerances average their costs; a tolerance that is not positive
+// is refused. Why: subject01's controllers tuned at 1e-3 fell on the level at 5e-4 and 2e-3 (the
+// README's at 8.39 and 8.30 s; the one refined over the ground steps at 7.82 and 7.24 s), while an
+// earlier one of the same chain walked 10 s at 2.5e-4 to 4e-3. Tuned at 5e-4 and 2e-3 (the README's
+// options, a 10 s horizon), subject01's controller walked 10 s at 2.5e-4 to 2e-3, 1e-3 included,
+// where it never walked while tuning (measured).
+TEST(GaitTuning, IntegratorTolerancesEnterTheCost) {
+  const QuickTuning q(2);
+  const double level = q.tune(q.t).summary.start_cost;
+  auto start_cost = [&](std::vector<double> tolerances) {
+    GaitTuningOptions t = q.t;
+    t.integrator_tolerances = std::move(tolerances);
+    return q.tune(t).summary.start_cost;
+  };
+  EXPECT_NEAR(start_cost({q.o.integrator_tolerance}), level, 1e-12);
+  const double loose = start_cost({1e-2}), tight = start_cost({1e-5});
+  EXPECT_GT(std::abs(loose - tight), 1e-9);  // the walks differ
+  EXPECT_NEAR(start_cost({1e-2, 1e-5}), 0.5 * (loose + tight), 1e-12);
+  EXPECT_THROW(start_cost({1e-3, 0.0}), std::invalid_argument);
+}
+
 // CMA-ES' initial step size reaches the search: the same seeded search moves the reflex gain by a
 // factor about e^0.5 at the default step and by under 1 % at a step of 0.001; a step that is not
 // positive is refused. Why a smaller step: from subject01's controller tuned over ground steps, 1,000

@@ -21,7 +21,8 @@ struct GaitStageOptions {
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
   double tune_rotation_limit_deg = 0;
-  std::vector<double> tune_steps_m, tune_pushes_N_s;
+  std::vector<double> tune_steps_m, tune_pushes_N_s, tune_tolerances;
+  std::vector<double> tune_step_at = {0.5};
   std::vector<double> speed_knobs;
   int schedule_evaluations = 0;
 
@@ -47,13 +48,21 @@ struct GaitStageOptions {
                     "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (RMS) costs as much as a fall (0: no bound)",
                     NumberRange{0.0, 90.0})
             .number_list("tune_steps_m", &GaitStageOptions::tune_steps_m, "m",
-                         "tuning: ground steps (negative: down) each candidate also walks over, the edge under the pelvis at half the "
-                         "horizon; their walks count in the cost as the level one's does",
+                         "tuning: ground steps (negative: down) each candidate also walks over, the edge under the pelvis at each of "
+                         "tune_step_at; their walks count in the cost as the level one's does",
                          NumberRange{-0.2, 0.2}, 4)
+            .number_list("tune_step_at", &GaitStageOptions::tune_step_at, "",
+                         "tuning: where each ground step's edge reaches the pelvis, fractions of the horizon; each step is walked at "
+                         "each (a controller tuned with its steps at one place is fitted to that place; empty: half the horizon)",
+                         NumberRange{0.0, 0.99, true}, 8)
             .number_list("tune_pushes_N_s", &GaitStageOptions::tune_pushes_N_s, "N s",
                          "tuning: pushes each candidate also walks through, impulses at the pelvis over 0.1 s at half the horizon, "
                          "ground frame, three numbers each (x y z)",
                          NumberRange{-200.0, 200.0}, 12, 3)
+            .number_list("tune_tolerances", &GaitStageOptions::tune_tolerances, "",
+                         "tuning: integrator tolerances every candidate's walks are taken at (each one more simulation), so the "
+                         "controller walks by its own stability, not by one tolerance's integration error (empty: the gait's 1e-3 alone)",
+                         NumberRange{0.0, 0.1, true}, 4)
             .number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
                          "more walks, each as long as the first, at these CPG speed knobs (times the trial's cadence), the controller "
                          "scheduled for each knob where the CPG holds controllers tuned at several; their motions go to "
@@ -106,13 +115,15 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.rounds = o.tune_rounds;
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.ground_steps_m = o.tune_steps_m;
+  if (!o.tune_step_at.empty()) to.ground_step_at = o.tune_step_at;
   to.set_pushes(o.tune_pushes_N_s);  // the option's reader refused lists that are not triples
+  to.integrator_tolerances = o.tune_tolerances;
   const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, trial.progress);
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
                            {"horizon_s", to.horizon_s}, {"rotation_limit_deg", to.worst_rotation_limit_deg},
-                           {"steps_m", o.tune_steps_m}, {"pushes_N_s", o.tune_pushes_N_s},
+                           {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;
   for (double knob : o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{}) {

@@ -86,15 +86,28 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   // The lowest-cost candidate's walk in this round, kept as the candidates run: CMA-ES' best is one
   // of them, so its walk needs no second simulation.
   double best_cost = std::numeric_limits<double>::infinity(), best_walked = 0;
-  // The walks each candidate takes: each speed knob on level ground, then each ground step and push.
+  // The walks each candidate takes: each speed knob on level ground, then each ground step and push,
+  // each at every integrator tolerance.
   struct Walk {
     double speed, step_m;
     Eigen::Vector3d push_N_s;
+    double tolerance;
+    double step_at = 0.5;  // the step's edge under the pelvis, a fraction of the horizon
   };
+  std::vector<double> tolerances = t.integrator_tolerances;
+  if (tolerances.empty()) tolerances.push_back(base.integrator_tolerance);
+  for (double tol : tolerances)
+    if (!(tol > 0)) throw std::invalid_argument("tune_gait_controller: integrator tolerances must be positive");
+  if (!t.ground_steps_m.empty() && t.ground_step_at.empty()) throw std::invalid_argument("tune_gait_controller: ground steps need a place (ground_step_at)");
+  for (double at : t.ground_step_at)
+    if (!(at > 0 && at < 1)) throw std::invalid_argument("tune_gait_controller: a ground step's place must lie inside the horizon (0 < ground_step_at < 1)");
   std::vector<Walk> walks;
-  for (double speed : t.speeds) walks.push_back({speed, 0.0, Eigen::Vector3d::Zero()});
-  for (double step : t.ground_steps_m) walks.push_back({1.0, step, Eigen::Vector3d::Zero()});
-  for (const Eigen::Vector3d& push : t.pushes_N_s) walks.push_back({1.0, 0.0, push});
+  for (double tol : tolerances) {
+    for (double speed : t.speeds) walks.push_back({speed, 0.0, Eigen::Vector3d::Zero(), tol});
+    for (double step : t.ground_steps_m)
+      for (double at : t.ground_step_at) walks.push_back({1.0, step, Eigen::Vector3d::Zero(), tol, at});
+    for (const Eigen::Vector3d& push : t.pushes_N_s) walks.push_back({1.0, 0.0, push, tol});
+  }
   // One candidate's simulations and score; walked receives the shortest time it walked. The start's
   // errors (the inputs') propagate; a candidate's score as falling at once.
   auto score = [&](const Candidate& k, double* walked, bool rethrow) {
@@ -104,7 +117,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       o.duration_s = horizon_s;
       o.amplitude = base.amplitude * k.amplitude_factor;
       o.speed = base.speed * w.speed;
-      if (w.step_m != 0) o.ground_step_m = w.step_m, o.ground_step_time_s = 0.5 * horizon_s;
+      o.integrator_tolerance = w.tolerance;
+      if (w.step_m != 0) o.ground_step_m = w.step_m, o.ground_step_time_s = w.step_at * horizon_s;
       if (w.push_N_s.norm() > 0) o.push_time_s = 0.5 * horizon_s, o.push_duration_s = 0.1, o.push_force_N = w.push_N_s / 0.1;
       double cost_here = t.fall_weight, walked_here = 0;
       try {

@@ -2,7 +2,8 @@
 // Tuning the reproduced gait's controller to walk without residual actuators: CMA-ES (cma_es.h) over
 // the joint reflex's gains, the CPG's amplitude and the balance feedback's gains, each candidate a
 // few simulations of the gait (reproduce_gait, no residuals, reflex targets from the trial's cycle at
-// the CPG's phase: one per speed knob, ground step and push), each scored by
+// the CPG's phase: one per speed knob, ground step at each place and push, all at each integrator
+// tolerance), each scored by
 //   (horizon - time walked) / horizon * fall_weight + tracking_weight * (mean + worst rotation RMS, rad)
 //   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|
 //   (+ fall_weight * the worst rotation's excess over a bound, relative to it, when one is set)
@@ -39,11 +40,19 @@ struct GaitTuningOptions {
   // time walked the shortest (default: 1 alone).
   std::vector<double> speeds = {1.0};
   // Ground steps (m; negative: down) each candidate also walks over at the options' speed, the edge
-  // under the pelvis at half the horizon: their walks count as the speeds' do (default: none).
+  // under the pelvis at each of ground_step_at: their walks count as the speeds' do (default: none).
   std::vector<double> ground_steps_m;
+  // Where the ground steps' edges reach the pelvis, fractions of the horizon (default: 0.5 alone).
+  // A controller tuned with its steps at one place is fitted to that place (measured: test_gait.cpp).
+  std::vector<double> ground_step_at = {0.5};
   // Pushes (impulses at the pelvis, N s, ground frame, over 0.1 s at half the horizon) each candidate
   // also walks through, counted as the ground steps are (default: none).
   std::vector<Eigen::Vector3d> pushes_N_s;
+  // Integrator tolerances (ReproducedGaitOptions::integrator_tolerance) every walk above is taken at,
+  // each one more simulation, counted as the speeds' are (default: none, the gait options' own alone).
+  // A controller tuned at one tolerance may walk there by the integration error's accident alone
+  // (measured: test_gait.cpp).
+  std::vector<double> integrator_tolerances;
   // Sets pushes_N_s from x y z triples one after another; false (unchanged) unless a multiple of 3.
   bool set_pushes(const std::vector<double>& xyz_N_s);
   // CMA-ES runs this many times, each from the last one's best with a fresh step size, their horizons
