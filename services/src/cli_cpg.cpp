@@ -229,30 +229,8 @@ void run_gait(const GaitArgs& g) {
   std::printf("%s\nwrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", r.BriefReport().c_str(), g.out.c_str());
 }
 
-// gait: the reproduced gait, driven by a fitted CPG.
-void add_gait_command(CLI::App& app) {
-  auto* gait = app.add_subcommand(
-      "gait",
-      "Reproduced gait: the muscle-driven model on contact spheres (no GRF) fitted to the trial's feet, excited\n"
-      "by a fitted CPG with its feedback and a joint-angle reflex, the pelvis' rotations held on the trial's\n"
-      "kinematics by residual actuators and its translations by soft springs (reported; --no-residuals to walk\n"
-      "without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
-      "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
-      "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
-  auto g = std::make_shared<GaitArgs>();
-  gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
-  gait->add_option("--scale-muscles-from", g->generic_model,
-                   "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
-      ->check(CLI::ExistingFile);
-  gait->add_option("--cpg", g->cpg, "fitted CPG (cpgait cpg fit, or the pipeline's _cpg.json)")->required()->check(CLI::ExistingFile);
-  gait->add_option("--kinematics", g->kinematics, "the trial's coordinates (IK .mot): initial state, reference")->required()->check(CLI::ExistingFile);
-  gait->add_option("--start", g->start, "a heel strike of the CPG's foot in the trial, s (default: the first, Zeni's method)");
-  gait->add_option("--begin", g->options.begin_time_s,
-                   "where the simulation begins in the trial, s (default: at the heel strike, at the CPG's start phase)");
-  gait->add_option("--duration", g->options.duration_s, "simulated time, s")->check(CLI::Range(0.01, 60.0))->capture_default_str();
-  gait->add_option("--speed", g->options.speed, "CPG speed knob (the reference is time-scaled alike)")->check(CLI::Range(0.2, 5.0))->capture_default_str();
-  gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
-  gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
+// gait's --tune* options: the controller's tuning before the walk.
+void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
   gait->add_option("--tune", g->tune,
                    "first tune the controller to walk without residuals: CMA-ES over the reflex gains, the CPG's amplitude and the "
                    "balance feedback's gains (trunk on the stance hip, swing-foot placement), this many simulations on every core; "
@@ -288,6 +266,33 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,
                    "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (deg RMS) costs as much as a fall")
       ->check(CLI::Range(0.0, 90.0));
+}
+
+// gait: the reproduced gait, driven by a fitted CPG.
+void add_gait_command(CLI::App& app) {
+  auto* gait = app.add_subcommand(
+      "gait",
+      "Reproduced gait: the muscle-driven model on contact spheres (no GRF) fitted to the trial's feet, excited\n"
+      "by a fitted CPG with its feedback and a joint-angle reflex, the pelvis' rotations held on the trial's\n"
+      "kinematics by residual actuators and its translations by soft springs (reported; --no-residuals to walk\n"
+      "without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
+      "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
+      "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
+  auto g = std::make_shared<GaitArgs>();
+  gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
+  gait->add_option("--scale-muscles-from", g->generic_model,
+                   "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
+  gait->add_option("--cpg", g->cpg, "fitted CPG (cpgait cpg fit, or the pipeline's _cpg.json)")->required()->check(CLI::ExistingFile);
+  gait->add_option("--kinematics", g->kinematics, "the trial's coordinates (IK .mot): initial state, reference")->required()->check(CLI::ExistingFile);
+  gait->add_option("--start", g->start, "a heel strike of the CPG's foot in the trial, s (default: the first, Zeni's method)");
+  gait->add_option("--begin", g->options.begin_time_s,
+                   "where the simulation begins in the trial, s (default: at the heel strike, at the CPG's start phase)");
+  gait->add_option("--duration", g->options.duration_s, "simulated time, s")->check(CLI::Range(0.01, 60.0))->capture_default_str();
+  gait->add_option("--speed", g->options.speed, "CPG speed knob (the reference is time-scaled alike)")->check(CLI::Range(0.2, 5.0))->capture_default_str();
+  gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
+  gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
+  add_gait_tuning_options(gait, g.get());
   gait->add_option("--stop-at", g->options.stop_time_s,
                    "walk -> stand: from this time, s, stop the walk at the next --stop-phase: the CPG fades out, the reflexes turn to a "
                    "standing pose (feet flat, the centre of mass over them) and an ankle and hip balance holds it");
