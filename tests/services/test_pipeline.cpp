@@ -288,7 +288,8 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
   for (const auto& [section, field] : {std::pair<const char*, const char*>{"gait", "phase_reference"}, {"gait", "tune_evaluations"},
                                        {"gait", "tune_horizon_s"}, {"gait", "tune_rounds"}, {"gait", "speed_knobs"},
                                        {"gait", "schedule_evaluations"}, {"gait", "tune_rotation_limit_deg"},
-                                       {"gait", "tune_steps_m"}, {"gait", "tune_pushes_N_s"}, {"gait", "tune_tolerances"}, {"gait", "tune_step_at"}}) {
+                                       {"gait", "tune_steps_m"}, {"gait", "tune_pushes_N_s"}, {"gait", "tune_tolerances"}, {"gait", "tune_step_at"},
+                                       {"gait", "check_tolerances"}}) {
     EXPECT_EQ(written_doc[section][field], PipelineOptions().to_json()[section][field]) << section << "." << field;
     written_doc[section].erase(field);
   }

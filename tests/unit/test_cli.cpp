@@ -353,6 +353,19 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_FALSE(gait["pelvis_residuals"].get<bool>());
   // On its own it walks (or tries to) the trial's length and at least 10 s: the walker falls sooner.
   EXPECT_TRUE(gait["simulated_s"].get<double>() >= 10.0 - 1e-9 || !gait["fell_at_s"].is_null()) << gait.dump();
+  // Without residuals the walk is taken again at the default check tolerances; each is the walk the
+  // CLI replays at that tolerance (as long, falling at the same time).
+  ASSERT_EQ(gait["tolerance_check"].size(), 2u) << gait.dump();
+  EXPECT_EQ(gait["tolerance_check"][0]["tolerance"].get<double>(), 5e-4);
+  EXPECT_EQ(gait["tolerance_check"][1]["tolerance"].get<double>(), 2e-3);
+  const nlohmann::json& coarse = gait["tolerance_check"][1];
+  EXPECT_GT(coarse["simulated_s"].get<double>(), 0.1) << coarse.dump();
+  const CliRun replay_coarse = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                                   "/out/w_ik.mot --duration 10 --tolerance 2e-3 -o " + dir + "/coarse");
+  ASSERT_EQ(replay_coarse.status, 0) << replay_coarse.output;
+  const nlohmann::json replayed_coarse = nlohmann::json::parse(cpgait::text::read_file(dir + "/coarse_gait.json"));
+  EXPECT_NEAR(replayed_coarse["simulated_s"].get<double>(), coarse["simulated_s"].get<double>(), 1e-9);
+  EXPECT_EQ(replayed_coarse["fell_at_s"], coarse["fell_at_s"]);
   const nlohmann::json tuned = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_cpg_tuned.json"));
   ASSERT_TRUE(tuned.contains("controller"));
   EXPECT_EQ(tuned["controller"]["reflex_kp"].get<double>(), gait["tuning"]["controller"]["reflex_kp"].get<double>());
@@ -421,6 +434,10 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const CliRun bad_tolerance = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_tolerance.json -o " + dir + "/bad_tol");
   EXPECT_EQ(bad_tolerance.status, 2) << bad_tolerance.output;
   EXPECT_NE(bad_tolerance.output.find("gait.tune_tolerances"), std::string::npos) << bad_tolerance.output;
+  std::ofstream(dir + "/bad_check.json") << R"({"gait": {"residuals": false, "check_tolerances": [1e-3, -1]}})";
+  const CliRun bad_check = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_check.json -o " + dir + "/bad_check");
+  EXPECT_EQ(bad_check.status, 2) << bad_check.output;
+  EXPECT_NE(bad_check.output.find("gait.check_tolerances"), std::string::npos) << bad_check.output;
   fs::remove_all(dir);
 }
 

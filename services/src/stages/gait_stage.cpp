@@ -25,6 +25,7 @@ struct GaitStageOptions {
   std::vector<double> tune_step_at = {0.5};
   std::vector<double> speed_knobs;
   int schedule_evaluations = 0;
+  std::vector<double> check_tolerances = {5e-4, 2e-3};
 
   static const OptionFields<GaitStageOptions>& fields() {
     static const OptionFields<GaitStageOptions> f =
@@ -71,15 +72,20 @@ struct GaitStageOptions {
             .integer("schedule_evaluations", &GaitStageOptions::schedule_evaluations, 0, 5000,
                      "after tuning, tune the controller again at each of speed_knobs with this many simulations, each from the "
                      "schedule at that knob so far: a gain schedule over the knob, stored in _cpg_tuned.json (0: one controller at every "
-                     "knob)");
+                     "knob)")
+            .number_list("check_tolerances", &GaitStageOptions::check_tolerances, "",
+                         "without residuals: the walk again at each of these integrator tolerances (the walk's own: 1e-3), reported in "
+                         "the summary's tolerance_check; a controller that walks at its own but falls at any of these walks by one "
+                         "tolerance's integration error, not by its own stability (a warning; tune it with tune_tolerances). Empty: no check",
+                         NumberRange{0.0, 0.1, true}, 4);
     return f;
   }
 };
 
-// A knob's name in file names: "0.8", "1.25".
-std::string knob_text(double knob) {
+// A number as printf's %g: a knob in file names ("0.8", "1.25"), a tolerance in messages ("0.0005").
+std::string number_text(double x) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", knob);
+  std::snprintf(buf, sizeof buf, "%g", x);
   return buf;
 }
 
@@ -93,7 +99,7 @@ nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, cons
     ReproducedGaitOptions o = driving.controller ? with_controller(*driving.controller, options) : options;
     o.speed = knob;
     const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, o);
-    const std::string file = "_gait_speed_" + knob_text(knob) + ".mot";
+    const std::string file = "_gait_speed_" + number_text(knob) + ".mot";
     trial.write(reproduced_gait_motion_table(model, g), file);
     runs.push_back({{"speed_knob", knob}, {"file", trial.inputs.name + file}, {"simulated_s", g.time_s.empty() ? 0.0 : g.time_s.back()},
                     {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)},
@@ -101,6 +107,32 @@ nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, cons
                     {"stride_time_s", g.stride_time_s}, {"cycle_over_speed_s", cpg.cycle_s / (cpg.speed * knob)},
                     {"stride_length_m", g.stride_length_m}, {"speed_m_s", g.speed_m_s}, {"distance_m", g.distance_m},
                     {"worst_rotation_rms_deg", g.worst_rotation_rms_rad * 180 / M_PI}, {"amplitude", driving.amplitude}});
+  }
+  return runs;
+}
+
+// The walk again at each of `tolerances` (integrator tolerances), otherwise alike: how long each
+// lasted and where it fell, and a warning in `summary` when the walk itself did not fall (`walked`)
+// and any of these did.
+nlohmann::json walk_at_tolerances(const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& feet,
+                                  const ReproducedGaitOptions& options, bool walked, const std::vector<double>& tolerances,
+                                  nlohmann::json& summary) {
+  nlohmann::json runs = nlohmann::json::array();
+  std::vector<std::string> fell;
+  for (double tolerance : tolerances) {
+    ReproducedGaitOptions o = options;
+    o.integrator_tolerance = tolerance;
+    const ReproducedGaitResult g = reproduce_gait(model, cpg, reference, feet, o);
+    runs.push_back({{"tolerance", tolerance}, {"simulated_s", g.time_s.empty() ? 0.0 : g.time_s.back()},
+                    {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)}});
+    if (g.fell_at_s >= 0) fell.push_back(number_text(tolerance) + " (at " + number_text(g.fell_at_s) + " s)");
+  }
+  if (walked && !fell.empty()) {
+    std::string list;
+    for (const std::string& f : fell) list += (list.empty() ? "" : ", ") + f;
+    summary["warnings"].push_back("the walk falls at integrator tolerance " + list + " but not at " + number_text(options.integrator_tolerance) +
+                                  ": the controller walks by that tolerance's integration error, not by its own stability; tune it with "
+                                  "tune_tolerances");
   }
   return runs;
 }
@@ -199,6 +231,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
     summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
     summary["cycle_over_speed_s"] = driving.cycle_s / (driving.speed * go.speed);
+    if (!go.pelvis_residuals && !o.check_tolerances.empty())
+      summary["tolerance_check"] = walk_at_tolerances(model, driving, reference, feet, go, g.fell_at_s < 0, o.check_tolerances, summary);
     if (!o.speed_knobs.empty()) summary["speed_knobs"] = walk_at_speed_knobs(trial, model, driving, reference, feet, go, o.speed_knobs);
     trial.write_text(json_text(summary, 2) + "\n", "_gait.json");
     return summary;
