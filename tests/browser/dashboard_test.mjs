@@ -511,6 +511,13 @@ let trialId;
         assert.equal(r.cells[3], run.stride_time_s.toFixed(3));
         assert.equal(r.cells[6], run.speed_m_s.toFixed(2));
       });
+      // The stage's check at other integrator tolerances (its default ones), each row its figures.
+      const checks = await page.locator('#gait-tolerance-check tr[data-tolerance]').evaluateAll((r) => r.map((x) => ({ tol: Number(x.dataset.tolerance), walked: x.cells[1].textContent })));
+      assert.deepEqual(checks.map((c) => c.tol), [5e-4, 2e-3]);
+      checks.forEach((c, i) => {
+        const run = summary.tolerance_check[i];
+        assert.equal(c.walked, run.fell_at_s == null ? `${run.simulated_s.toFixed(1)} s, did not fall` : `fell at ${run.fell_at_s.toFixed(2)} s`);
+      });
       // The plot: the trial's strides and mean, the simulation's strides and mean, each knob's mean;
       // every mean at 50 % the average of its strides there, the trial's the cycles endpoint's.
       await page.selectOption('#gait-cycle-quantity', 'knee_angle_r');

@@ -680,6 +680,13 @@ function gaitCycleCard(card, summary, cycles) {
       h('td', {}, `${strides(r, 'right')} / ${strides(r, 'left')}`), h('td', {}, fmt(r.stride_time_s, 3)),
       h('td', {}, `${fmt(r.cycle_over_speed_s, 3)}${r.stride_time_s > 0 && r.cycle_over_speed_s ? ` (${fmt(100 * (r.stride_time_s / r.cycle_over_speed_s - 1), 1)} %)` : ''}`),
       h('td', {}, fmt(r.stride_length_m, 2)), h('td', {}, fmt(r.speed_m_s, 2)))));
+  // The same walk at other integrator tolerances (the stage's check without residuals): a walk that
+  // stands at its own tolerance alone stands by that tolerance's integration error.
+  const checks = summary.tolerance_check || [];
+  const checkTable = checks.length ? h('table', { id: 'gait-tolerance-check' },
+    h('tr', {}, ['Integrator tolerance', 'Walked'].map((x) => h('th', {}, x))),
+    checks.map((c) => h('tr', { 'data-tolerance': c.tolerance, class: c.fell_at_s == null ? '' : 'fell' },
+      h('td', {}, `${c.tolerance}`), h('td', {}, c.fell_at_s == null ? `${fmt(c.simulated_s, 1)} s, did not fall` : `fell at ${fmt(c.fell_at_s, 2)} s`)))) : null;
   const box = h('div', { id: 'plot-gait-cycle' });
   const trialPanel = panel('kinematics');
   const names = sim ? sim.series.map((s) => s.name).filter((n) => !/^pelvis_t[xyz]$/.test(n)) : [];
@@ -687,7 +694,7 @@ function gaitCycleCard(card, summary, cycles) {
   const residuals = summary.pelvis_residuals ? 'with pelvis residual actuators' : 'on its own (no residual actuators)';
   card('Reproduced gait over the gait cycle, and its speed knobs', h('div', { class: 'muted' },
     `The CPG-driven model ${residuals}: every simulated stride from its own heel strikes against the trial's strides, and the same controller at the other speed knobs.`),
-  table, sim ? h('div', { class: 'controls' }, sel) : h('p', { class: 'muted' }, 'No simulated stride to plot.'), box);
+  table, checkTable, sim ? h('div', { class: 'controls' }, sel) : h('p', { class: 'muted' }, 'No simulated stride to plot.'), box);
   if (!sim) return;
   const draw = () => {
     const q = sel.value;

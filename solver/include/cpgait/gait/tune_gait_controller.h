@@ -49,9 +49,10 @@ struct GaitTuningOptions {
   // also walks through, counted as the ground steps are (default: none).
   std::vector<Eigen::Vector3d> pushes_N_s;
   // Integrator tolerances (ReproducedGaitOptions::integrator_tolerance) every walk above is taken at,
-  // each one more simulation, counted as the speeds' are (default: none, the gait options' own alone).
-  // A controller tuned at one tolerance may walk there by the integration error's accident alone
-  // (measured: test_gait.cpp).
+  // each one more simulation, counted as the speeds' are (default: none, the gait options' own alone);
+  // a walk that fell at one is not taken again at the next, its fall counted there too. A controller
+  // tuned at one tolerance may walk there by the integration error's accident alone (measured:
+  // test_gait.cpp).
   std::vector<double> integrator_tolerances;
   // Sets pushes_N_s from x y z triples one after another; false (unchanged) unless a multiple of 3.
   bool set_pushes(const std::vector<double>& xyz_N_s);
