@@ -306,6 +306,10 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--stand-fade", g->options.stand_fade_s, "walk -> stand: the CPG's excitations' time to fade out, s")
       ->check(CLI::Range(0.0, 5.0))
       ->capture_default_str();
+  gait->add_option("--stand-reflex-gain", g->options.stand_reflex_gain,
+                   "walk -> stand: the joint reflex's gains standing, times the walk's (reached over --stand-blend): the reflexes alone hold the pose")
+      ->check(CLI::Range(0.1, 10.0))
+      ->capture_default_str();
   gait->add_option("--push-time", g->options.push_time_s, "push the pelvis at this time, s (with --push-force)");
   gait->add_option("--push-force", g->push_force_N, "the push's force at the pelvis' origin, N, ground frame (x y z)")->expected(3);
   gait->add_option("--push-duration", g->options.push_duration_s, "how long the push lasts, s (impulse: force x duration)")

@@ -99,6 +99,10 @@ struct ReproducedGaitOptions {
   // other one swings in beside it. The stop's test gives what was tried.
   double stop_time_s = -1, stop_over_s = 0, stop_phase = 0.3;
   double stand_blend_s = 0.3, stand_fade_s = 0.3;
+  // Standing, the joint reflex's gains (reflex_kp, reflex_kv) rise to this many times the walk's over
+  // stand_blend_s (default 2): with the CPG faded the reflexes alone hold the pose against gravity,
+  // and a controller tuned to walk on soft reflexes buckles at its walking gains (the stop's test).
+  double stand_reflex_gain = 2;
   StandingBalanceGains standing;
 };
 
