@@ -497,7 +497,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       }
       if (frozen) standing_balance_feedback(model, contacts, stand_legs, stand_joints, o.standing, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), 1.0, e);
       for (int c : root) e[c] = ed[c] = 0;
-      const double gain = 1 + (o.stand_reflex_gain - 1) * stand_share;  // 0 until the stop
+      const double gain = 1 + (o.stand_reflex_gain - 1) * stand_share;  // 1 while walking
       const Eigen::VectorXd drive = ws.geometry.moment_arm_m * (gain * o.reflex_kp * e + gain * o.reflex_kv * ed);
       for (int m = 0; m < nm; ++m)
         excitation[m] = std::clamp(excitation[m] + drive[m], model.muscles[m].min_control, model.muscles[m].max_control);
