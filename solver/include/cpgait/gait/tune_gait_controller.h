@@ -73,7 +73,9 @@ struct GaitTuningSummary {
   int evaluations = 0;
   double seconds = 0;
   double start_cost = 0, cost = 0;
-  double start_walked_s = 0, walked_s = 0;  // time walked over the horizon before falling (= horizon: did not fall)
+  // The shortest of the walks taken, over the horizon, before falling (= horizon: none fell). A walk
+  // that fell is not taken at the next tolerances, where it may fall sooner.
+  double start_walked_s = 0, walked_s = 0;
   std::string BriefReport() const;
 };
 
