@@ -161,7 +161,11 @@ void run_gait(const GaitArgs& g) {
   const Model& model = mr.model;
   const CpgModel cpg = read_cpg_model(g.cpg);
   const Storage kin = read_storage(g.kinematics);
-  ContactSet contacts = g.contacts.empty() ? default_foot_contacts(model) : read_contact_set(g.contacts, model);
+  const std::string contacts_text = g.contacts.empty() ? std::string() : text::read_file(g.contacts);
+  ContactSet contacts = g.contacts.empty() ? default_foot_contacts(model) : parse_contact_set_json(contacts_text, g.contacts, model);
+  // A contact file that sets no ground gets the default feet's: under the recorded feet, spheres fitted.
+  const nlohmann::json contacts_json = g.contacts.empty() ? nlohmann::json::object() : parse_json_input(contacts_text, g.contacts);
+  const bool ground_given = contacts_json.contains("ground_height_m") || contacts_json.contains("ground_velocity_m_s");
   if (contacts.spheres.empty())
     throw InputError(g.model, 0, "contacts", "the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --contacts");
   ReproducedGaitOptions o = g.options;
@@ -181,7 +185,7 @@ void run_gait(const GaitArgs& g) {
     std::printf("start: heel strike of %s at %.3f s (Zeni)\n", foot.c_str(), o.start_time_s);
   }
   // The ground under the recorded feet (as CMC places it), the spheres fitted to the trial's feet.
-  if (g.contacts.empty()) {
+  if (!ground_given) {
     if (g.no_foot_fit) {
       place_ground_under_feet(model, contacts, k.time_s, k.q);
     } else {
@@ -337,7 +341,10 @@ void add_gait_command(CLI::App& app) {
   gait->add_flag("--no-foot-fit", g->no_foot_fit,
                  "default spheres as placed on the model; without it each sphere's radius is fitted so the trial's poses load the "
                  "feet with body weight on average");
-  gait->add_option("--contacts", g->contacts, "contact spheres JSON (cpgait.contact/1); default: two per foot")->check(CLI::ExistingFile);
+  gait->add_option("--contacts", g->contacts,
+                   "contact spheres JSON (cpgait.contact/1); default: two per foot. A file without ground_height_m or "
+                   "ground_velocity_m_s gets the default feet's ground (under the recorded feet) and fitting")
+      ->check(CLI::ExistingFile);
   gait->add_option("-o,--output", g->out, "output prefix")->required();
   gait->callback([g] { run_gait(*g); });
 }

@@ -379,6 +379,25 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   ASSERT_EQ(replay.status, 0) << replay.output;
   EXPECT_NE(replay.output.find("controller from the CPG"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("without residuals"), std::string::npos) << replay.output;
+  // Feet from a file: without a ground of its own it gets the default feet's, placed under the recorded
+  // feet (on the walker's treadmill-free trial: still) with the spheres fitted; with one, the file's.
+  const std::string spheres = R"("spheres": [{"name": "heel_r", "body": "foot_r", "location_m": [0, -0.04, 0]}, {"name": "heel_l", "body": "foot_l", "location_m": [0, -0.04, 0]}], "defaults": {"radius_m": 0.03})";
+  std::ofstream(dir + "/feet.json") << "{" + spheres + "}";
+  std::ofstream(dir + "/feet_on_ground.json") << R"({"ground_height_m": -0.5, )" + spheres + "}";
+  const CliRun own_feet = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                              "/out/w_ik.mot --duration 0.2 --contacts " + dir + "/feet.json -o " + dir + "/own_feet");
+  ASSERT_EQ(own_feet.status, 0) << own_feet.output;
+  EXPECT_NE(own_feet.output.find("ground under the recorded feet"), std::string::npos) << own_feet.output;
+  EXPECT_NE(own_feet.output.find("feet fitted to the trial"), std::string::npos) << own_feet.output;
+  const CliRun given_ground = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                                  "/out/w_ik.mot --duration 0.2 --contacts " + dir + "/feet_on_ground.json -o " + dir + "/given_ground");
+  ASSERT_EQ(given_ground.status, 0) << given_ground.output;
+  EXPECT_EQ(given_ground.output.find("ground under the recorded feet"), std::string::npos) << given_ground.output;
+  // The file's ground half a metre below the feet: no sphere touches it; under the feet, they carry the walker.
+  const cpgait::Storage in_air = cpgait::read_storage(dir + "/given_ground_gait_contact_forces.sto"),
+                        standing = cpgait::read_storage(dir + "/own_feet_gait_contact_forces.sto");
+  EXPECT_LT(in_air.data.rightCols(in_air.data.cols() - 1).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_GT(standing.data.rightCols(standing.data.cols() - 1).cwiseAbs().maxCoeff(), 100.0);
   // From the heel strike and the beginning the tuning used (stored with the controller), the same walk
   // as the stage's, though the stage's is longer than the tuning's horizon and the replay shorter.
   EXPECT_NE(replay.output.find("the CPG's controller was tuned from"), std::string::npos) << replay.output;
