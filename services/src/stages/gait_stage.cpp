@@ -89,6 +89,12 @@ std::string number_text(double x) {
   return buf;
 }
 
+// How long a walk lasted and where it fell (null: it did not), as both kinds of further walk report it.
+nlohmann::json walk_outcome(const ReproducedGaitResult& g) {
+  return {{"simulated_s", g.time_s.empty() ? 0.0 : g.time_s.back()},
+          {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)}};
+}
+
 // The CPG's walks at other speed knobs, with the same options otherwise: each one's motion to
 // _gait_speed_<knob>.mot, its strides and falls (the stride against the CPG's cycle / knob) returned.
 nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& feet,
@@ -101,12 +107,13 @@ nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, cons
     const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, o);
     const std::string file = "_gait_speed_" + number_text(knob) + ".mot";
     trial.write(reproduced_gait_motion_table(model, g), file);
-    runs.push_back({{"speed_knob", knob}, {"file", trial.inputs.name + file}, {"simulated_s", g.time_s.empty() ? 0.0 : g.time_s.back()},
-                    {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)},
-                    {"heel_strikes_s", {{"right", g.heel_strikes_r_s}, {"left", g.heel_strikes_l_s}}},
-                    {"stride_time_s", g.stride_time_s}, {"cycle_over_speed_s", cpg.cycle_s / (cpg.speed * knob)},
-                    {"stride_length_m", g.stride_length_m}, {"speed_m_s", g.speed_m_s}, {"distance_m", g.distance_m},
-                    {"worst_rotation_rms_deg", g.worst_rotation_rms_rad * 180 / M_PI}, {"amplitude", driving.amplitude}});
+    nlohmann::json run = walk_outcome(g);
+    run.update({{"speed_knob", knob}, {"file", trial.inputs.name + file},
+                {"heel_strikes_s", {{"right", g.heel_strikes_r_s}, {"left", g.heel_strikes_l_s}}},
+                {"stride_time_s", g.stride_time_s}, {"cycle_over_speed_s", cpg.cycle_s / (cpg.speed * knob)},
+                {"stride_length_m", g.stride_length_m}, {"speed_m_s", g.speed_m_s}, {"distance_m", g.distance_m},
+                {"worst_rotation_rms_deg", g.worst_rotation_rms_rad * 180 / M_PI}, {"amplitude", driving.amplitude}});
+    runs.push_back(run);
   }
   return runs;
 }
@@ -123,8 +130,9 @@ nlohmann::json walk_at_tolerances(const Model& model, const CpgModel& cpg, const
     ReproducedGaitOptions o = options;
     o.integrator_tolerance = tolerance;
     const ReproducedGaitResult g = reproduce_gait(model, cpg, reference, feet, o);
-    runs.push_back({{"tolerance", tolerance}, {"simulated_s", g.time_s.empty() ? 0.0 : g.time_s.back()},
-                    {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)}});
+    nlohmann::json run = walk_outcome(g);
+    run["tolerance"] = tolerance;
+    runs.push_back(run);
     if (g.fell_at_s >= 0) fell.push_back(number_text(tolerance) + " (at " + number_text(g.fell_at_s) + " s)");
   }
   if (walked && !fell.empty()) {
