@@ -673,14 +673,18 @@ function gaitCycleCard(card, summary, cycles) {
   const sim = gaitPanel && gaitPanel.series.length ? gaitPanel : null;  // null: no simulated stride
   const runs = [Object.assign({ speed_knob: 1, panel: gaitPanel }, summary)].concat((summary.speed_knobs || []).map((r) => Object.assign({}, r, { panel: cycles && cycles.panels.find((p) => p.name.startsWith('gait_speed_') && p.speed_knob === r.speed_knob) })));
   const strides = (r, side) => Math.max(0, ((r.heel_strikes_s || {})[side] || []).length - 1);
+  const phases = (r) => {
+    const p = r.contact_phases;
+    return p && strides(r, 'right') > 0 ? `${fmt(p.stance_percent.right, 0)} / ${fmt(p.stance_percent.left, 0)}, ${fmt(p.double_support_percent, 0)}` : '';
+  };
   const walked = (r) => (r.fell_at_s == null ? `${fmt(r.simulated_s, 1)} s, did not fall` : `fell at ${fmt(r.fell_at_s, 2)} s`);
   const table = h('table', { id: 'gait-runs' },
-    h('tr', {}, ['Speed knob', 'Walked', 'Strides R / L', 'Stride (s)', 'Cycle / knob (s)', 'Stride length (m)', 'Speed (m/s)'].map((x) => h('th', {}, x))),
+    h('tr', {}, ['Speed knob', 'Walked', 'Strides R / L', 'Stride (s)', 'Cycle / knob (s)', 'Stride length (m)', 'Speed (m/s)', 'Stance R / L, double support (%)'].map((x) => h('th', {}, x))),
     runs.map((r) => h('tr', { 'data-knob': r.speed_knob, class: r.fell_at_s == null ? '' : 'fell' },
       h('td', {}, `${r.speed_knob}×`), h('td', {}, walked(r)),
       h('td', {}, `${strides(r, 'right')} / ${strides(r, 'left')}`), h('td', {}, fmt(r.stride_time_s, 3)),
       h('td', {}, `${fmt(r.cycle_over_speed_s, 3)}${r.stride_time_s > 0 && r.cycle_over_speed_s ? ` (${fmt(100 * (r.stride_time_s / r.cycle_over_speed_s - 1), 1)} %)` : ''}`),
-      h('td', {}, fmt(r.stride_length_m, 2)), h('td', {}, fmt(r.speed_m_s, 2)))));
+      h('td', {}, fmt(r.stride_length_m, 2)), h('td', {}, fmt(r.speed_m_s, 2)), h('td', {}, phases(r)))));
   // The same walk at other integrator tolerances (the stage's check without residuals): a walk that
   // stands at its own tolerance alone stands by that tolerance's integration error.
   const checks = summary.tolerance_check || [];

@@ -22,6 +22,26 @@ namespace {
 
 constexpr double kContactThresholdN = 20.0;
 
+// Share of [t0, t1) each side was loaded (over kContactThresholdN) and both were, in %.
+struct ContactPhases {
+  double stance_percent[2] = {0, 0};
+  double double_support_percent = 0;
+};
+ContactPhases contact_phases(const std::vector<double>& time_s, const std::vector<double>& load_r, const std::vector<double>& load_l,
+                             double t0, double t1) {
+  ContactPhases p;
+  int n = 0, loaded[2] = {0, 0}, both = 0;
+  for (std::size_t i = 0; i < time_s.size(); ++i) {
+    if (time_s[i] < t0 - 1e-9 || time_s[i] >= t1 - 1e-9) continue;
+    const bool r = load_r[i] > kContactThresholdN, l = load_l[i] > kContactThresholdN;
+    ++n, loaded[0] += r, loaded[1] += l, both += r && l;
+  }
+  if (n == 0) return p;
+  p.stance_percent[0] = 100.0 * loaded[0] / n, p.stance_percent[1] = 100.0 * loaded[1] / n;
+  p.double_support_percent = 100.0 * both / n;
+  return p;
+}
+
 // Times a signal rises through a threshold (linear interpolation between samples) and stays above it
 // for hold_s: a foot's landing, not a toe brushing the ground.
 std::vector<double> rising_through(const std::vector<double>& t, const std::vector<double>& v, double threshold, double min_gap_s,
@@ -574,6 +594,10 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.speed_m_s = r.stride_length_m / r.stride_time_s;
   }
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
+  if (hs.size() >= 2) {
+    const ContactPhases p = contact_phases(r.time_s, load[0], load[1], hs.front(), hs.back());
+    r.stance_percent_r = p.stance_percent[0], r.stance_percent_l = p.stance_percent[1], r.double_support_percent = p.double_support_percent;
+  }
   r.frozen_at_s = frozen_at_s;
   // The stand: the longest stretch after the freeze with the pelvis at rest (under 0.1 m/s over the
   // ground) and the centre of mass over the feet; it begins when the model came to rest.
@@ -639,6 +663,11 @@ std::string ReproducedGaitResult::BriefReport() const {
                 fell_at_s >= 0 ? ("fell at " + std::to_string(fell_at_s) + " s after " + std::to_string(distance_m) + " m").c_str()
                                : ("walked " + std::to_string(distance_m) + " m").c_str());
   std::string out = buf;
+  if (stride_time_s > 0) {
+    std::snprintf(buf, sizeof buf, "; stance %.0f / %.0f %% (right / left), double support %.0f %%", stance_percent_r, stance_percent_l,
+                  double_support_percent);
+    out += buf;
+  }
   if (frozen_at_s >= 0) {
     std::snprintf(buf, sizeof buf, "; froze at %.2f s", frozen_at_s);
     out += buf;
@@ -675,6 +704,8 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   j["stride_length_m"] = r.stride_length_m;
   j["speed_m_s"] = r.speed_m_s;
   j["distance_m"] = r.distance_m;
+  j["contact_phases"] = {{"stance_percent", {{"right", r.stance_percent_r}, {"left", r.stance_percent_l}}},
+                         {"double_support_percent", r.double_support_percent}};
   if (r.frozen_at_s >= 0) j["stand"] = {{"frozen_at_s", r.frozen_at_s}, {"stopped_at_s", r.stopped_at_s >= 0 ? nlohmann::json(r.stopped_at_s) : nlohmann::json(nullptr)}, {"stood_s", r.stood_s}};
   j["fell_at_s"] = r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr);
   j["pelvis_residual_force_percent_bw"] = r.mean_residual_force_percent_bw;

@@ -123,6 +123,10 @@ struct ReproducedGaitResult {
   std::string worst_rotation;
   std::vector<double> heel_strikes_r_s, heel_strikes_l_s;
   double stride_time_s = 0, stride_length_m = 0, speed_m_s = 0;  // means over full strides
+  // Contact phases over the full right strides, % of their time: a foot is loaded while its spheres
+  // bear over 20 N, double support while both are (0 without two right heel strikes). Walking
+  // typically: stance ~60 %, double support ~20 % (subject01's force plates: 24 %).
+  double stance_percent_r = 0, stance_percent_l = 0, double_support_percent = 0;
   double mean_residual_force_percent_bw = 0;   // |pelvis residual force| mean, % of body weight
   double mean_residual_moment_Nm = 0;
   double fell_at_s = -1;                        // < 0: did not fall
