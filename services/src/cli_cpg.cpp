@@ -150,6 +150,7 @@ struct GaitArgs {
   double start = -1;
   ReproducedGaitOptions options;
   bool no_residuals = false, no_foot_fit = false;
+  int foot_spheres = 0;  // 0: the CPG controller's feet, else 2
   GaitTuningOptions tuning;
   int tune = 0;
   std::vector<double> push_force_N;
@@ -162,7 +163,12 @@ void run_gait(const GaitArgs& g) {
   const CpgModel cpg = read_cpg_model(g.cpg);
   const Storage kin = read_storage(g.kinematics);
   const std::string contacts_text = g.contacts.empty() ? std::string() : text::read_file(g.contacts);
-  ContactSet contacts = g.contacts.empty() ? default_foot_contacts(model) : parse_contact_set_json(contacts_text, g.contacts, model);
+  // Without a contact file: the spheres asked for, else those the CPG's controller was tuned on.
+  const int controller_feet = cpg.controller ? cpg.controller->foot_spheres : 2;
+  if (g.contacts.empty() && g.foot_spheres == 0 && controller_feet == 0)
+    throw InputError(g.cpg, 0, "controller.foot_spheres", "the CPG's controller was tuned on a contact file: give it with --contacts");
+  const int foot_spheres = g.contacts.empty() ? (g.foot_spheres > 0 ? g.foot_spheres : controller_feet) : 0;
+  ContactSet contacts = g.contacts.empty() ? default_foot_contacts(model, foot_spheres) : parse_contact_set_json(contacts_text, g.contacts, model);
   // A contact file that sets no ground gets the default feet's: under the recorded feet, spheres fitted.
   const nlohmann::json contacts_json = g.contacts.empty() ? nlohmann::json::object() : parse_json_input(contacts_text, g.contacts);
   const bool ground_given = contacts_json.contains("ground_height_m") || contacts_json.contains("ground_velocity_m_s");
@@ -205,6 +211,7 @@ void run_gait(const GaitArgs& g) {
   if (g.tune > 0) {
     GaitTuningOptions to = g.tuning;
     to.evaluations = g.tune;
+    to.foot_spheres = foot_spheres;
     if (!to.set_pushes(g.tune_pushes_N_s)) throw InputError("--tune-pushes", 0, "tune-pushes", "expected three numbers (x y z) per push");
     const GaitTuningResult tuned = tune_gait_controller(model, cpg, kin, contacts, o, to);
     driving = tuned.cpg;
@@ -342,9 +349,13 @@ void add_gait_command(CLI::App& app) {
                  "default spheres as placed on the model; without it each sphere's radius is fitted so the trial's poses load the "
                  "feet with body weight on average");
   gait->add_option("--contacts", g->contacts,
-                   "contact spheres JSON (cpgait.contact/1); default: two per foot. A file without ground_height_m or "
+                   "contact spheres JSON (cpgait.contact/1); default: --foot-spheres. A file without ground_height_m or "
                    "ground_velocity_m_s gets the default feet's ground (under the recorded feet) and fitting")
       ->check(CLI::ExistingFile);
+  gait->add_option("--foot-spheres", g->foot_spheres,
+                   "contact spheres per foot without --contacts: 2 (heel, toes) or 5 (medial and lateral heel, first and fifth "
+                   "metatarsal heads, toes); default: those the CPG's controller was tuned on, else 2")
+      ->check(CLI::IsMember({2, 5}));
   gait->add_option("-o,--output", g->out, "output prefix")->required();
   gait->callback([g] { run_gait(*g); });
 }

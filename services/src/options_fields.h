@@ -76,6 +76,17 @@ class OptionFields {
                 },
                 [key, m](const T& o, nlohmann::json& j) { j[key] = o.*m; }});
   }
+  OptionFields& integer_choice(std::string key, int T::*m, std::vector<int> values, std::string description) {
+    std::string list;
+    for (int v : values) list += (list.empty() ? "" : ", ") + std::to_string(v);
+    return add({key, {{"type", "integer"}, {"enum", values}, {"description", description}},
+                [key, m, values, list](const nlohmann::json& v, T& o, const OptionPath& p) {
+                  if (!v.is_number_integer() || std::find(values.begin(), values.end(), v.get<long>()) == values.end())
+                    p.fail(key, "expected one of " + list);
+                  o.*m = v.get<int>();
+                },
+                [key, m](const T& o, nlohmann::json& j) { j[key] = o.*m; }});
+  }
   OptionFields& choice(std::string key, std::string T::*m, std::vector<std::string> values, std::string description) {
     std::string list;
     for (const auto& v : values) list += (list.empty() ? "" : ", ") + nlohmann::json(v).dump();

@@ -490,16 +490,19 @@ let trialId;
       await page.fill('#opt-gait-tune_horizon_s', '3');
       await page.fill('#opt-gait-duration_s', '4');
       await page.fill('#opt-gait-speed_knobs', '0.8 1.2');
+      await page.selectOption('#opt-gait-foot_spheres', '5');  // an integer choice: sent as a number
       await page.click('#upload button[type=submit]');
       await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
       const id = page.url().match(/trial\/([0-9a-f]{16})/)[1];
       await page.waitForFunction(() => window.__cpgait.ready === true, null, { timeout: 120000 });
       const job = await (await page.request.get(`${base}/api/v1/trials/${id}/files/job.json`)).json();
       assert.deepEqual(job.gait.speed_knobs, [0.8, 1.2]);
+      assert.strictEqual(job.gait.foot_spheres, 5);
       assert.equal(job.gait.residuals, false);
       // The table: one row per walk, each with the stage's own figures.
       const trial = await (await page.request.get(`${base}/api/v1/trials/${id}`)).json();
       const summary = trial.stages.find((s) => s.name === 'gait').summary;
+      assert.equal(Object.keys(summary.foot_fit.radius_change_mm).length, 10);
       const runs = [summary, ...summary.speed_knobs];
       const rows = await page.locator('#gait-runs tr[data-knob]').evaluateAll((r) => r.map((x) => ({ knob: x.dataset.knob, cells: [...x.cells].map((c) => c.textContent) })));
       assert.deepEqual(rows.map((r) => r.knob), ['1', '0.8', '1.2']);

@@ -428,6 +428,24 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_EQ(scheduled["controller"], tuned["controller"]);
   ASSERT_EQ(scheduled["controller_schedule"].size(), 1u);
   EXPECT_EQ(scheduled["controller_schedule"][0]["speed"].get<double>(), 0.8);
+  // Feet: the stage's two per foot are recorded with its controller; tuned on five, the controller
+  // records five, and a replay stands on five unless told otherwise.
+  EXPECT_EQ(tuned["controller"]["foot_spheres"].get<int>(), 2);
+  const CliRun five = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                          "/out/w_ik.mot --duration 0.5 --foot-spheres 5 --tune 2 --tune-horizon 0.5 -o " + dir + "/k5");
+  ASSERT_EQ(five.status, 0) << five.output;
+  EXPECT_EQ(nlohmann::json::parse(cpgait::text::read_file(dir + "/k5_cpg_tuned.json"))["controller"]["foot_spheres"].get<int>(), 5);
+  const CliRun on_five = run("gait --model " + model + " --cpg " + dir + "/k5_cpg_tuned.json --kinematics " + dir + "/out/w_ik.mot --duration 0.2 -o " + dir + "/on5");
+  const CliRun on_two = run("gait --model " + model + " --cpg " + dir + "/k5_cpg_tuned.json --kinematics " + dir +
+                            "/out/w_ik.mot --duration 0.2 --foot-spheres 2 -o " + dir + "/on2");
+  ASSERT_EQ(on_five.status, 0) << on_five.output;
+  ASSERT_EQ(on_two.status, 0) << on_two.output;
+  EXPECT_EQ(cpgait::read_storage(dir + "/on5_gait_contact_forces.sto").num_columns(), 1 + 3 * 10);
+  EXPECT_EQ(cpgait::read_storage(dir + "/on2_gait_contact_forces.sto").num_columns(), 1 + 3 * 4);
+  const CliRun on_three = run("gait --model " + model + " --cpg " + dir + "/k5_cpg_tuned.json --kinematics " + dir +
+                              "/out/w_ik.mot --duration 0.2 --foot-spheres 3 -o " + dir + "/on3");
+  EXPECT_NE(on_three.status, 0);
+  EXPECT_NE(on_three.output.find("--foot-spheres"), std::string::npos) << on_three.output;
   const CliRun bad_push = run("gait --model " + model + " --cpg " + dir + "/k08_cpg_tuned.json --kinematics " + dir +
                               "/out/w_ik.mot --duration 0.5 --tune 2 --tune-pushes 0 0 -o " + dir + "/bad");
   EXPECT_EQ(bad_push.status, 2) << bad_push.output;
@@ -457,6 +475,10 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const CliRun bad_check = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_check.json -o " + dir + "/bad_check");
   EXPECT_EQ(bad_check.status, 2) << bad_check.output;
   EXPECT_NE(bad_check.output.find("gait.check_tolerances"), std::string::npos) << bad_check.output;
+  std::ofstream(dir + "/bad_feet.json") << R"({"gait": {"foot_spheres": 3}})";
+  const CliRun bad_feet = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_feet.json -o " + dir + "/bad_feet");
+  EXPECT_EQ(bad_feet.status, 2) << bad_feet.output;
+  EXPECT_NE(bad_feet.output.find("gait.foot_spheres"), std::string::npos) << bad_feet.output;
   fs::remove_all(dir);
 }
 

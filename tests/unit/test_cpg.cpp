@@ -193,6 +193,20 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   bad = named.to_json();
   bad["controller"]["foot_placement"]["lateral_v_s"] = "fast";
   EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
+  // The feet it was tuned on: 2 when the JSON predates them, as written otherwise, 2, 5 or 0 only.
+  EXPECT_EQ(k.foot_spheres, 2);
+  named.controller->foot_spheres = 5;
+  EXPECT_EQ(CpgModel::from_json(named.to_json(), "model.json").controller->foot_spheres, 5);
+  bad = named.to_json();
+  bad["controller"].erase("foot_spheres");
+  EXPECT_EQ(CpgModel::from_json(bad, "model.json").controller->foot_spheres, 2);
+  bad["controller"]["foot_spheres"] = 3;
+  try {
+    CpgModel::from_json(bad, "model.json");
+    ADD_FAILURE() << "3 spheres per foot accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "controller.foot_spheres");
+  }
 }
 
 // A gain schedule over the speed knob: at a tuned knob its own controller and amplitude; between two,

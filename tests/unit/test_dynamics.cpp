@@ -441,6 +441,26 @@ TEST(Contact, JsonSideFileAndDefaultFeet) {
   const Model m = read_osim(refdata::fixture("models/walker.osim")).model;
   const ContactSet def = default_foot_contacts(m);
   EXPECT_EQ(def.spheres.size(), 4u);
+  // Five per foot: both heels' and the metatarsal heads' spheres either side of the foot's midline,
+  // the right foot's mirrored on the left, every bottom level with the heel's in the default pose.
+  const ContactSet five = default_foot_contacts(m, 5);
+  ASSERT_EQ(five.spheres.size(), 10u);
+  KinematicsWorkspace<double> kws(m);
+  Eigen::VectorXd q(m.num_coordinates());
+  for (int c = 0; c < m.num_coordinates(); ++c) q[c] = m.coordinates[static_cast<std::size_t>(c)].default_value;
+  forward_kinematics(m, q.data(), kws);
+  auto bottom_m = [&](const ContactSphere& s) { return sphere_centre_m(kws, s).y() - s.radius_m; };
+  for (std::size_t i = 0; i < 5; ++i) {
+    const ContactSphere &r = five.spheres[i], &l = five.spheres[5 + i];
+    EXPECT_EQ(r.name.substr(0, r.name.size() - 2) + "_l", l.name);
+    EXPECT_EQ(r.name.substr(r.name.size() - 2), "_r");
+    EXPECT_NEAR(r.location_m.z(), -l.location_m.z(), 1e-12) << r.name;
+    EXPECT_NEAR(bottom_m(r), bottom_m(five.spheres[0]), 1e-9) << r.name;
+    EXPECT_NEAR(bottom_m(l), bottom_m(five.spheres[5]), 1e-9) << l.name;
+  }
+  EXPECT_LT(five.spheres[0].location_m.z() * five.spheres[1].location_m.z(), 0.0);  // medial and lateral heel
+  EXPECT_LT(five.spheres[2].location_m.z() * five.spheres[3].location_m.z(), 0.0);  // first and fifth metatarsal heads
+  EXPECT_THROW(default_foot_contacts(m, 3), std::invalid_argument);
   const ContactSet set = parse_contact_set_json(
       R"({"ground_height_m": 0.01, "defaults": {"stiffness": 2e6}, "spheres": [
            {"name": "heel", "body": "foot_r", "location_m": [0, -0.04, 0], "radius_m": 0.03},

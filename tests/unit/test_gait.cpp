@@ -518,6 +518,25 @@ TEST(GaitTuning, GroundStepsAndTheRotationBoundEnterTheCost) {
   EXPECT_GT(q.tune(tight).summary.start_cost, level + q.t.fall_weight);
 }
 
+// The tuned controller records the feet it walked on; a speed knob's entry is tuned on the
+// controller's feet only, and a count that is no feet is refused.
+TEST(GaitTuning, TheControllerRecordsItsFeet) {
+  const QuickTuning q(2);
+  GaitTuningOptions t = q.t;
+  t.foot_spheres = 5;
+  const GaitTuningResult tuned = q.tune(t);
+  ASSERT_TRUE(tuned.cpg.controller.has_value());
+  EXPECT_EQ(tuned.cpg.controller->foot_spheres, 5);
+  EXPECT_EQ(q.tune(q.t).cpg.controller->foot_spheres, 2);
+  GaitTuningOptions entry = t;
+  entry.speeds = {0.8};
+  EXPECT_EQ(tune_gait_controller(q.w.m, tuned.cpg, q.w.reference, q.w.feet, q.o, entry).cpg.speed_schedule.size(), 1u);
+  entry.foot_spheres = 2;
+  EXPECT_THROW(tune_gait_controller(q.w.m, tuned.cpg, q.w.reference, q.w.feet, q.o, entry), std::invalid_argument);
+  t.foot_spheres = 4;
+  EXPECT_THROW(q.tune(t), std::invalid_argument);
+}
+
 // Each ground step is walked at each place (a fraction of the horizon), the cost their mean; a place
 // outside the horizon is refused. Why: subject01's controller tuned with its steps at 5 s of 10
 // walked the 1 cm step up there and fell with either step at 4.5 or 5.5 s, at every tolerance.

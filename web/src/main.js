@@ -208,13 +208,14 @@ function changedOptions(form) {
   const out = {};
   for (const input of form.querySelectorAll('[data-stage][data-key]')) {
     const { stage, key, type } = input.dataset;
+    const asType = (v) => (v !== undefined && type === 'integer' ? Number(v) : v);  // a select's values are text
     let value;
     if (type === 'boolean') value = input.checked;
-    else if (input.tagName === 'SELECT') value = input.value;
+    else if (input.tagName === 'SELECT') value = asType(input.value);
     else if (input.value === '') continue;
     else if (type === 'array') value = input.value.split(/[\s,]+/).filter((x) => x).map(Number);
     else value = type === 'number' || type === 'integer' ? Number(input.value) : input.value;
-    const dflt = input.tagName === 'SELECT' ? input.querySelector('option[selected]')?.value : type === 'boolean' ? input.defaultChecked : undefined;
+    const dflt = input.tagName === 'SELECT' ? asType(input.querySelector('option[selected]')?.value) : type === 'boolean' ? input.defaultChecked : undefined;
     if (dflt !== undefined && value === dflt) continue;
     (out[stage] ??= {})[key] = value;
   }

@@ -21,6 +21,7 @@ struct GaitStageOptions {
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
   double tune_rotation_limit_deg = 0;
+  int foot_spheres = 2;
   std::vector<double> tune_steps_m, tune_pushes_N_s, tune_tolerances;
   std::vector<double> tune_step_at = {0.5};
   std::vector<double> speed_knobs;
@@ -36,6 +37,9 @@ struct GaitStageOptions {
                              "and at least 10 s", NumberRange{0.0, 30.0, true})
             .boolean("residuals", &GaitStageOptions::residuals,
                      "pelvis residual actuators hold the rotations and soft springs the translations; false: the model walks on its own")
+            .integer_choice("foot_spheres", &GaitStageOptions::foot_spheres, {2, 5},
+                            "contact spheres per foot: 2 (heel, toes) or 5 (medial and lateral heel, first and fifth metatarsal heads, "
+                            "toes: they resist the foot's roll, and subject01's controller tuned on them walked over ground steps)")
             .boolean("phase_reference", &GaitStageOptions::phase_reference,
                      "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time")
             .integer("tune_evaluations", &GaitStageOptions::tune_evaluations, 0, 5000,
@@ -155,6 +159,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.horizon_s = o.tune_horizon_s;
   to.rounds = o.tune_rounds;
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
+  to.foot_spheres = o.foot_spheres;
   to.ground_steps_m = o.tune_steps_m;
   if (!o.tune_step_at.empty()) to.ground_step_at = o.tune_step_at;
   to.set_pushes(o.tune_pushes_N_s);  // the option's reader refused lists that are not triples
@@ -196,7 +201,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     const FittedCpg* cpg = trial.products.find<FittedCpg>();
     if (!cpg) return {{"not_run", "no CPG was fitted in this run (see the cpg stage)"}};
     const Model& model = trial.model;
-    ContactSet feet = default_foot_contacts(model);
+    ContactSet feet = default_foot_contacts(model, o.foot_spheres);
     if (feet.spheres.empty()) return {{"not_run", "the model has no calcn_/toes_ or foot_ bodies for contact spheres"}};
     // The simulation begins at the first heel strike whose phase lies in the trial, or earlier when
     // the trial would end first.

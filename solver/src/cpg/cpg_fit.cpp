@@ -616,6 +616,7 @@ nlohmann::json CpgController::to_json() const {
           {"start_time_s", start_time_s},
           {"begin_time_s", begin_time_s},
           {"speed", speed},
+          {"foot_spheres", foot_spheres},
           {"trunk_kp", trunk_kp},
           {"trunk_kv", trunk_kv},
           {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}}};
@@ -676,6 +677,9 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
       k.start_time_s = c.value("start_time_s", k.start_time_s);
       k.begin_time_s = c.value("begin_time_s", k.begin_time_s);
       k.speed = c.value("speed", k.speed);
+      k.foot_spheres = c.value("foot_spheres", k.foot_spheres);
+      if (k.foot_spheres != 0 && k.foot_spheres != 2 && k.foot_spheres != 5)
+        fail(field + ".foot_spheres", "the feet it was tuned on: 2 or 5 spheres per foot, or 0 for a contact file");
       k.trunk_kp = c.value("trunk_kp", k.trunk_kp);
       k.trunk_kv = c.value("trunk_kv", k.trunk_kv);
       if (c.contains("foot_placement")) {

@@ -1,6 +1,7 @@
 #include "cpgait/dynamics/contact.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "cpgait/kinematics/forward_kinematics.h"
 
@@ -161,47 +162,70 @@ void place_ground_under_feet(const Model& model, ContactSet& set, const std::vec
   if (v.norm() >= 0.1) set.ground_velocity_m_s = v;
 }
 
-ContactSet default_foot_contacts(const Model& model) {
+ContactSet default_foot_contacts(const Model& model, int spheres_per_foot) {
+  if (spheres_per_foot != 2 && spheres_per_foot != 5)
+    throw std::invalid_argument("default_foot_contacts: 2 or 5 spheres per foot, not " + std::to_string(spheres_per_foot));
+  const bool five = spheres_per_foot == 5;
   ContactSet set;
+  std::vector<std::size_t> first_of_foot;
   for (const char* side : {"r", "l"}) {
-    const double z = side[0] == 'r' ? 1.0 : -1.0;
+    const double z = side[0] == 'r' ? 1.0 : -1.0;  // ground z points to the right: lateral on the right foot
     const int calcn = model.body_index(std::string("calcn_") + side), toes = model.body_index(std::string("toes_") + side);
     const int foot = model.body_index(std::string("foot_") + side);
-    ContactSphere heel, toe;
-    heel.name = std::string("heel_") + side;
-    toe.name = std::string("toes_") + side;
+    auto sphere = [&](const char* name, int body, Eigen::Vector3d location_m, double radius_m) {
+      ContactSphere s;
+      s.name = std::string(name) + "_" + side;
+      s.body = body;
+      s.location_m = location_m;
+      s.radius_m = radius_m;
+      set.spheres.push_back(s);
+    };
+    first_of_foot.push_back(set.spheres.size());
     if (calcn > 0) {
-      // gait2392's calcaneus frame sits at the heel's back, about 1 cm above the sole.
-      heel.body = calcn;
-      heel.location_m = {0.031, 0.010, 0.0};
-      toe.body = toes > 0 ? toes : calcn;
-      toe.location_m = toes > 0 ? Eigen::Vector3d(0.030, -0.008, z * 0.005) : Eigen::Vector3d(0.17, 0.010, z * 0.005);
-      heel.radius_m = toe.radius_m = 0.032;
+      // gait2392's calcaneus frame sits at the heel's back, about 1 cm above the sole; five spheres
+      // put the heel's two 12 mm either side of its midline and the first and fifth metatarsal heads
+      // at the ball's medial and lateral edges.
+      const double r = 0.032;
+      if (five) {
+        sphere("heel_med", calcn, {0.031, 0.010, -z * 0.012}, r);
+        sphere("heel_lat", calcn, {0.031, 0.010, z * 0.012}, r);
+        sphere("met1", calcn, {0.160, 0.010, -z * 0.022}, r);
+        sphere("met5", calcn, {0.150, 0.010, z * 0.035}, r);
+      } else {
+        sphere("heel", calcn, {0.031, 0.010, 0.0}, r);
+      }
+      sphere("toes", toes > 0 ? toes : calcn, toes > 0 ? Eigen::Vector3d(0.030, -0.008, z * 0.005) : Eigen::Vector3d(0.17, 0.010, z * 0.005), r);
     } else if (foot > 0) {
       // The fixture walker's foot frame is at the ankle; its sole is 7 cm below.
-      heel.body = toe.body = foot;
-      heel.location_m = {0.0, -0.04, 0.0};
-      toe.location_m = {0.16, -0.04, 0.0};
-      heel.radius_m = toe.radius_m = 0.03;
+      const double r = 0.03;
+      if (five) {
+        sphere("heel_med", foot, {0.0, -0.04, -z * 0.02}, r);
+        sphere("heel_lat", foot, {0.0, -0.04, z * 0.02}, r);
+        sphere("met1", foot, {0.13, -0.04, -z * 0.025}, r);
+        sphere("met5", foot, {0.12, -0.04, z * 0.035}, r);
+      } else {
+        sphere("heel", foot, {0.0, -0.04, 0.0}, r);
+      }
+      sphere("toes", foot, {0.16, -0.04, 0.0}, r);
     } else {
-      continue;
+      first_of_foot.pop_back();
     }
-    set.spheres.push_back(heel);
-    set.spheres.push_back(toe);
   }
-  // The foot stands flat in the model's default pose, so there the toe sphere's bottom is put level
-  // with the heel's: on scaled gait2392 models the locations above alone left it ~2 cm lower, and
-  // subject01's recorded stance never brought the heels within 23 mm of the ground (measured).
+  // The foot stands flat in the model's default pose, so there every sphere's bottom is put level
+  // with the heel's: on scaled gait2392 models the locations above alone left the toes ~2 cm lower,
+  // and subject01's recorded stance never brought the heels within 23 mm of the ground (measured).
   KinematicsWorkspace<double> kws(model);
   Eigen::VectorXd q(model.num_coordinates());
   for (int c = 0; c < model.num_coordinates(); ++c) q[c] = model.coordinates[static_cast<std::size_t>(c)].default_value;
   forward_kinematics(model, q.data(), kws);
   auto bottom = [&](const ContactSphere& s) { return sphere_centre_m(kws, s).y() - s.radius_m; };
-  for (std::size_t i = 0; i + 1 < set.spheres.size(); i += 2) {
-    ContactSphere& toe = set.spheres[i + 1];
-    const double rise_m = bottom(set.spheres[i]) - bottom(toe);
-    toe.location_m += kws.body_in_ground[static_cast<std::size_t>(toe.body)].rotation.transpose() * Eigen::Vector3d(0, rise_m, 0);
-  }
+  first_of_foot.push_back(set.spheres.size());
+  for (std::size_t f = 0; f + 1 < first_of_foot.size(); ++f)
+    for (std::size_t i = first_of_foot[f] + 1; i < first_of_foot[f + 1]; ++i) {
+      ContactSphere& s = set.spheres[i];
+      const double rise_m = bottom(set.spheres[first_of_foot[f]]) - bottom(s);
+      s.location_m += kws.body_in_ground[static_cast<std::size_t>(s.body)].rotation.transpose() * Eigen::Vector3d(0, rise_m, 0);
+    }
   return set;
 }
 

@@ -71,6 +71,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   }
   if (t.speeds.empty()) throw std::invalid_argument("tune_gait_controller: no speeds to walk at");
   if (t.rounds < 1) throw std::invalid_argument("tune_gait_controller: rounds must be at least 1");
+  if (t.foot_spheres != 0 && t.foot_spheres != 2 && t.foot_spheres != 5)
+    throw std::invalid_argument("tune_gait_controller: foot_spheres is 2 or 5 (spheres per foot) or 0 (a contact file)");
   if (!(t.initial_step > 0)) throw std::invalid_argument("tune_gait_controller: the initial step must be positive");
   std::vector<int> rotations;
   for (int c = 0; c < model.num_coordinates(); ++c)
@@ -79,6 +81,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   std::mutex progress_mutex;
   // A single knob's tuning starts from the CPG's schedule there (scheduled_at_speed).
   const double knob = base.speed * (t.speeds.size() == 1 ? t.speeds.front() : 1.0);
+  if (cpg.controller && t.speeds.size() == 1 && std::abs(knob - cpg.controller->speed) > 1e-9 && cpg.controller->foot_spheres != t.foot_spheres)
+    throw std::invalid_argument("tune_gait_controller: a speed knob's entry is tuned on the controller's feet (" +
+                                std::to_string(cpg.controller->foot_spheres) + " spheres per foot), not " + std::to_string(t.foot_spheres));
   const CpgModel start = scheduled_at_speed(cpg, knob);
   CpgModel working = start;  // the best so far: its controller and amplitude
   working.controller = start.controller.value_or(untuned_controller());
@@ -196,6 +201,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   result.summary.cost = cost;
   result.summary.walked_s = walked;
   working.controller->speed = knob;
+  working.controller->foot_spheres = t.foot_spheres;
   result.cpg = working;
   if (cpg.controller && t.speeds.size() == 1 && std::abs(knob - cpg.controller->speed) > 1e-9) {
     // Tuned at another knob than the CPG's controller: a schedule entry at that knob; the rest stay.

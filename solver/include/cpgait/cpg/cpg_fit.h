@@ -39,6 +39,9 @@ struct CpgController {
   // the tuning's horizon could begin elsewhere (a walk that would run past the trial begins earlier).
   double begin_time_s = -1;
   double speed = 1.0;  // the speed knob (ReproducedGaitOptions::speed) it was tuned at
+  // The feet it was tuned on: default_foot_contacts' spheres per foot (2 or 5), 0 for a contact file's.
+  // A replay stands on them unless told otherwise; on other feet a tuned walk is another walk.
+  int foot_spheres = 2;
 
   nlohmann::json to_json() const;  // the CPG JSON's "controller" (CpgModel::from_json reads it)
 };

@@ -65,6 +65,10 @@ struct GaitTuningOptions {
   // CMA-ES' initial step size in the searched parameters (1: a factor e in a reflex gain, a trunk
   // share of 1; default 0.5); smaller (0.15) refines a controller already tuned.
   double initial_step = 0.5;
+  // The feet the walks stand on (`contacts`), recorded in the result's controller (CpgController::
+  // foot_spheres): default_foot_contacts' spheres per foot, 0 for a contact file's (default 2). A
+  // speed knob's entry is tuned on the controller's feet only (else std::invalid_argument).
+  int foot_spheres = 2;
   int num_threads = 0;          // simulations in parallel; 0: every core
   unsigned long long seed = 1;
 };
