@@ -442,6 +442,13 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   ASSERT_EQ(on_two.status, 0) << on_two.output;
   EXPECT_EQ(cpgait::read_storage(dir + "/on5_gait_contact_forces.sto").num_columns(), 1 + 3 * 10);
   EXPECT_EQ(cpgait::read_storage(dir + "/on2_gait_contact_forces.sto").num_columns(), 1 + 3 * 4);
+  // Tuned on a contact file, it needs the file again.
+  nlohmann::json on_file = nlohmann::json::parse(cpgait::text::read_file(dir + "/k5_cpg_tuned.json"));
+  on_file["controller"]["foot_spheres"] = 0;
+  std::ofstream(dir + "/on_file_cpg.json") << on_file.dump();
+  const CliRun no_file = run("gait --model " + model + " --cpg " + dir + "/on_file_cpg.json --kinematics " + dir + "/out/w_ik.mot --duration 0.2 -o " + dir + "/nofile");
+  EXPECT_EQ(no_file.status, 2) << no_file.output;
+  EXPECT_NE(no_file.output.find("controller.foot_spheres"), std::string::npos) << no_file.output;
   const CliRun on_three = run("gait --model " + model + " --cpg " + dir + "/k5_cpg_tuned.json --kinematics " + dir +
                               "/out/w_ik.mot --duration 0.2 --foot-spheres 3 -o " + dir + "/on3");
   EXPECT_NE(on_three.status, 0);

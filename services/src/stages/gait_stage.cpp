@@ -117,7 +117,7 @@ nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, cons
                 {"stride_time_s", g.stride_time_s}, {"cycle_over_speed_s", cpg.cycle_s / (cpg.speed * knob)},
                 {"stride_length_m", g.stride_length_m}, {"speed_m_s", g.speed_m_s}, {"distance_m", g.distance_m},
                 {"worst_rotation_rms_deg", g.worst_rotation_rms_rad * 180 / M_PI}, {"amplitude", driving.amplitude}});
-    run["contact_phases"] = reproduced_gait_metrics(model, g)["contact_phases"];
+    run["contact_phases"] = reproduced_gait_contact_phases(g);
     runs.push_back(run);
   }
   return runs;

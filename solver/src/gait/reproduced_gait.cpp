@@ -694,6 +694,10 @@ Storage reproduced_gait_contact_table(const ReproducedGaitResult& r) {
   return make_storage("ContactForces", names, r.time_s, r.contact_force_N, false);
 }
 
+nlohmann::json reproduced_gait_contact_phases(const ReproducedGaitResult& r) {
+  return {{"stance_percent", {{"right", r.stance_percent_r}, {"left", r.stance_percent_l}}}, {"double_support_percent", r.double_support_percent}};
+}
+
 nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitResult& r) {
   nlohmann::json j;
   j["simulated_s"] = r.time_s.empty() ? 0.0 : r.time_s.back();
@@ -704,8 +708,7 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   j["stride_length_m"] = r.stride_length_m;
   j["speed_m_s"] = r.speed_m_s;
   j["distance_m"] = r.distance_m;
-  j["contact_phases"] = {{"stance_percent", {{"right", r.stance_percent_r}, {"left", r.stance_percent_l}}},
-                         {"double_support_percent", r.double_support_percent}};
+  j["contact_phases"] = reproduced_gait_contact_phases(r);
   if (r.frozen_at_s >= 0) j["stand"] = {{"frozen_at_s", r.frozen_at_s}, {"stopped_at_s", r.stopped_at_s >= 0 ? nlohmann::json(r.stopped_at_s) : nlohmann::json(nullptr)}, {"stood_s", r.stood_s}};
   j["fell_at_s"] = r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr);
   j["pelvis_residual_force_percent_bw"] = r.mean_residual_force_percent_bw;

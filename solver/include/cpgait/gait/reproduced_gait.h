@@ -162,5 +162,7 @@ Storage reproduced_gait_motion_table(const Model& model, const ReproducedGaitRes
 Storage reproduced_gait_residual_table(const ReproducedGaitResult& r);
 Storage reproduced_gait_contact_table(const ReproducedGaitResult& r);
 nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitResult& r);
+// Its "contact_phases": {"stance_percent": {"right", "left"}, "double_support_percent"}.
+nlohmann::json reproduced_gait_contact_phases(const ReproducedGaitResult& r);
 
 }  // namespace cpgait
