@@ -336,6 +336,11 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--tolerance", g->options.integrator_tolerance, "integrator error tolerance (relative and absolute)")
       ->check(CLI::Range(1e-8, 1e-1))
       ->capture_default_str();
+  gait->add_option("--control-interval", g->options.control_interval_s,
+                   "the controller's interval, s: the CPG, reflexes and balance feedback are updated once per interval (also the "
+                   "integrator's largest step and the output's sample); 0.0025 with --tolerance 8e-3 walks subject01's robust controller 3x faster")
+      ->check(CLI::Range(1e-4, 1e-2))
+      ->capture_default_str();
   gait->add_flag("--compliant-tendons", g->options.compliant_tendons,
                  "compliant tendons (OpenSim's Thelen2003Muscle; suits a CPG fitted to CMC excitations). Default: rigid, as static "
                  "optimization assumes");

@@ -27,6 +27,7 @@ struct GaitStageOptions {
   std::vector<double> speed_knobs;
   int schedule_evaluations = 0;
   std::vector<double> check_tolerances = {5e-4, 2e-3};
+  double tolerance = 1e-3, control_interval_s = 1e-3;
 
   static const OptionFields<GaitStageOptions>& fields() {
     static const OptionFields<GaitStageOptions> f =
@@ -40,6 +41,13 @@ struct GaitStageOptions {
             .integer_choice("foot_spheres", &GaitStageOptions::foot_spheres, {2, 5},
                             "contact spheres per foot: 2 (heel, toes) or 5 (medial and lateral heel, first and fifth metatarsal heads, "
                             "toes: they resist the foot's roll, and subject01's controller tuned on them walked over ground steps)")
+            .number("tolerance", &GaitStageOptions::tolerance, "",
+                    "the integrator's error tolerance (relative and absolute) of the walk and of tuning's candidates without tune_tolerances",
+                    NumberRange{1e-8, 0.1})
+            .number("control_interval_s", &GaitStageOptions::control_interval_s, "s",
+                    "the controller's interval: the CPG, reflexes and balance feedback are updated once per interval (also the "
+                    "integrator's largest step and the motion's sample); 0.0025 with tolerance 8e-3 walks subject01's robust controller 3x faster",
+                    NumberRange{1e-4, 0.01})
             .boolean("phase_reference", &GaitStageOptions::phase_reference,
                      "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time")
             .integer("tune_evaluations", &GaitStageOptions::tune_evaluations, 0, 5000,
@@ -66,7 +74,7 @@ struct GaitStageOptions {
                          NumberRange{-200.0, 200.0}, 12, 3)
             .number_list("tune_tolerances", &GaitStageOptions::tune_tolerances, "",
                          "tuning: integrator tolerances every candidate's walks are taken at (each one more simulation), so the "
-                         "controller walks by its own stability, not by one tolerance's integration error (empty: the gait's 1e-3 alone)",
+                         "controller walks by its own stability, not by one tolerance's integration error (empty: tolerance alone)",
                          NumberRange{0.0, 0.1, true}, 4)
             .number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
                          "more walks, each as long as the first, at these CPG speed knobs (times the trial's cadence), the controller "
@@ -78,7 +86,7 @@ struct GaitStageOptions {
                      "schedule at that knob so far: a gain schedule over the knob, stored in _cpg_tuned.json (0: one controller at every "
                      "knob)")
             .number_list("check_tolerances", &GaitStageOptions::check_tolerances, "",
-                         "without residuals: the walk again at each of these integrator tolerances (the walk's own: 1e-3), reported in "
+                         "without residuals: the walk again at each of these integrator tolerances (the walk's own: tolerance), reported in "
                          "the summary's tolerance_check; a controller that walks at its own but falls at any of these walks by one "
                          "tolerance's integration error, not by its own stability (a warning; tune it with tune_tolerances). Empty: no check",
                          NumberRange{0.0, 0.1, true}, 4);
@@ -223,6 +231,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.duration_s = o.duration_s ? *o.duration_s : std::min(2 * cycle_s, available);
     go.pelvis_residuals = o.residuals;
     go.phase_indexed_reference = o.phase_reference;
+    go.integrator_tolerance = o.tolerance;
+    go.control_interval_s = o.control_interval_s;
     // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
     CpgModel driving = cpg->model;
@@ -239,6 +249,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     nlohmann::json summary = reproduced_gait_metrics(model, g);
     summary["compliant_tendons"] = go.compliant_tendons;
     summary["pelvis_residuals"] = go.pelvis_residuals;
+    summary["tolerance"] = go.integrator_tolerance;
+    summary["control_interval_s"] = go.control_interval_s;
     if (!tuning.is_null()) summary["tuning"] = tuning;
     nlohmann::json radius = nlohmann::json::object();
     for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;

@@ -91,6 +91,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   r.coordinate_names = coordinate_names(model);
   const int nq = model.num_coordinates(), nm = static_cast<int>(model.muscles.size());
   if (contacts_in.spheres.empty()) throw InputError(reference.name, 0, "contacts", "the reproduced gait needs contact spheres");
+  if (!(o.control_interval_s > 0 && o.control_interval_s <= 0.01))
+    throw InputError(reference.name, 0, "control_interval_s", "the controller's interval must lie in (0, 0.01] s, not " + std::to_string(o.control_interval_s));
   // A treadmill's belt runs at the speed knob's pace too: the reference is time-scaled, its strides
   // keep their length, so the belt must move them back that much faster.
   ContactSet contacts = contacts_in;
