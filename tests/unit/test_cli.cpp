@@ -26,6 +26,12 @@ namespace fs = std::filesystem;
 namespace {
 using cpgait::refdata::CliRun;
 CliRun run(const std::string& args) { return cpgait::refdata::run_cpgait(args); }
+
+// A run refused with `status`, its message naming `what` (a field, an option).
+void expect_refused(const CliRun& r, int status, const std::string& what) {
+  EXPECT_EQ(r.status, status) << r.output;
+  EXPECT_NE(r.output.find(what), std::string::npos) << r.output;
+}
 }  // namespace
 
 TEST(Cli, HelpStatesInputsOutputsAndUnits) {
@@ -170,8 +176,7 @@ TEST(CliReference, RunToolRunsOpenSimsCmcSetup) {
                                        "<coordinate>no_such</coordinate></CMC_Joint></objects></CMC_TaskSet></OpenSimDocument>";
   const CliRun bad = run("cmc --model " + pl + "OutputReference/subject01_simbody_adjusted.osim --kinematics " + pl +
                          "OutputReference/ResultsRRA/subject01_walk1_RRA_Kinematics_q.sto --tasks " + dir + "/tasks.xml -o " + dir);
-  EXPECT_EQ(bad.status, 2) << bad.output;
-  EXPECT_NE(bad.output.find("tasks.xml:2"), std::string::npos) << bad.output;
+  expect_refused(bad, 2, "tasks.xml:2");
   EXPECT_NE(bad.output.find("no_such"), std::string::npos) << bad.output;
   fs::remove_all(dir);
 }
@@ -447,16 +452,13 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   on_file["controller"]["foot_spheres"] = 0;
   std::ofstream(dir + "/on_file_cpg.json") << on_file.dump();
   const CliRun no_file = run("gait --model " + model + " --cpg " + dir + "/on_file_cpg.json --kinematics " + dir + "/out/w_ik.mot --duration 0.2 -o " + dir + "/nofile");
-  EXPECT_EQ(no_file.status, 2) << no_file.output;
-  EXPECT_NE(no_file.output.find("controller.foot_spheres"), std::string::npos) << no_file.output;
+  expect_refused(no_file, 2, "controller.foot_spheres");
   const CliRun on_three = run("gait --model " + model + " --cpg " + dir + "/k5_cpg_tuned.json --kinematics " + dir +
                               "/out/w_ik.mot --duration 0.2 --foot-spheres 3 -o " + dir + "/on3");
-  EXPECT_NE(on_three.status, 0);
-  EXPECT_NE(on_three.output.find("--foot-spheres"), std::string::npos) << on_three.output;
+  expect_refused(on_three, 105, "--foot-spheres");  // CLI11's validation error
   const CliRun bad_push = run("gait --model " + model + " --cpg " + dir + "/k08_cpg_tuned.json --kinematics " + dir +
                               "/out/w_ik.mot --duration 0.5 --tune 2 --tune-pushes 0 0 -o " + dir + "/bad");
-  EXPECT_EQ(bad_push.status, 2) << bad_push.output;
-  EXPECT_NE(bad_push.output.find("three numbers (x y z) per push"), std::string::npos) << bad_push.output;
+  expect_refused(bad_push, 2, "three numbers (x y z) per push");
   // The stage's ground steps, pushes and tolerances reach the tuner: each candidate's cost is the mean
   // over its walks, so the start's cost changes; a push needs three numbers, a tolerance is positive.
   std::ofstream(dir + "/perturbed.json")
@@ -484,30 +486,24 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_LT((staged_fast.data.topRows(replayed_fast.num_rows()) - replayed_fast.data).cwiseAbs().maxCoeff(), 1e-6);
   std::ofstream(dir + "/bad_interval.json") << R"({"gait": {"control_interval_s": 0.02}})";
   const CliRun bad_interval = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_interval.json -o " + dir + "/bad_interval");
-  EXPECT_EQ(bad_interval.status, 2) << bad_interval.output;
-  EXPECT_NE(bad_interval.output.find("gait.control_interval_s"), std::string::npos) << bad_interval.output;
+  expect_refused(bad_interval, 2, "gait.control_interval_s");
   const CliRun slow_control = run("gait --model " + model + " --cpg " + dir + "/perturbed/w_cpg_tuned.json --kinematics " + dir +
                                   "/perturbed/w_ik.mot --duration 0.5 --control-interval 0.05 -o " + dir + "/slow_control");
-  EXPECT_NE(slow_control.status, 0);
-  EXPECT_NE(slow_control.output.find("--control-interval"), std::string::npos) << slow_control.output;
+  expect_refused(slow_control, 105, "--control-interval");  // CLI11's validation error
   EXPECT_GT(std::abs(p["tuning"]["cost"][0].get<double>() - gait["tuning"]["cost"][0].get<double>()), 1e-6) << p["tuning"].dump();
   std::ofstream(dir + "/bad_push.json") << R"({"gait": {"tune_evaluations": 8, "tune_pushes_N_s": [0, 0]}})";
   const CliRun bad_stage_push = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_push.json -o " + dir + "/bad_stage");
-  EXPECT_EQ(bad_stage_push.status, 2) << bad_stage_push.output;
-  EXPECT_NE(bad_stage_push.output.find("gait.tune_pushes_N_s"), std::string::npos) << bad_stage_push.output;
+  expect_refused(bad_stage_push, 2, "gait.tune_pushes_N_s");
   EXPECT_NE(bad_stage_push.output.find("a multiple of 3 numbers"), std::string::npos) << bad_stage_push.output;
   std::ofstream(dir + "/bad_tolerance.json") << R"({"gait": {"tune_evaluations": 8, "tune_tolerances": [0]}})";
   const CliRun bad_tolerance = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_tolerance.json -o " + dir + "/bad_tol");
-  EXPECT_EQ(bad_tolerance.status, 2) << bad_tolerance.output;
-  EXPECT_NE(bad_tolerance.output.find("gait.tune_tolerances"), std::string::npos) << bad_tolerance.output;
+  expect_refused(bad_tolerance, 2, "gait.tune_tolerances");
   std::ofstream(dir + "/bad_check.json") << R"({"gait": {"residuals": false, "check_tolerances": [1e-3, -1]}})";
   const CliRun bad_check = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_check.json -o " + dir + "/bad_check");
-  EXPECT_EQ(bad_check.status, 2) << bad_check.output;
-  EXPECT_NE(bad_check.output.find("gait.check_tolerances"), std::string::npos) << bad_check.output;
+  expect_refused(bad_check, 2, "gait.check_tolerances");
   std::ofstream(dir + "/bad_feet.json") << R"({"gait": {"foot_spheres": 3}})";
   const CliRun bad_feet = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_feet.json -o " + dir + "/bad_feet");
-  EXPECT_EQ(bad_feet.status, 2) << bad_feet.output;
-  EXPECT_NE(bad_feet.output.find("gait.foot_spheres"), std::string::npos) << bad_feet.output;
+  expect_refused(bad_feet, 2, "gait.foot_spheres");
   fs::remove_all(dir);
 }
 
