@@ -81,7 +81,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   std::mutex progress_mutex;
   // A single knob's tuning starts from the CPG's schedule there (scheduled_at_speed).
   const double knob = base.speed * (t.speeds.size() == 1 ? t.speeds.front() : 1.0);
-  if (cpg.controller && t.speeds.size() == 1 && std::abs(knob - cpg.controller->speed) > 1e-9 && cpg.controller->foot_spheres != t.foot_spheres)
+  // Tuned at a single knob other than the CPG controller's: the result is the schedule's entry there.
+  const bool schedule_entry = cpg.controller && t.speeds.size() == 1 && std::abs(knob - cpg.controller->speed) > 1e-9;
+  if (schedule_entry && cpg.controller->foot_spheres != t.foot_spheres)
     throw std::invalid_argument("tune_gait_controller: a speed knob's entry is tuned on the controller's feet (" +
                                 std::to_string(cpg.controller->foot_spheres) + " spheres per foot), not " + std::to_string(t.foot_spheres));
   const CpgModel start = scheduled_at_speed(cpg, knob);
@@ -203,8 +205,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   working.controller->speed = knob;
   working.controller->foot_spheres = t.foot_spheres;
   result.cpg = working;
-  if (cpg.controller && t.speeds.size() == 1 && std::abs(knob - cpg.controller->speed) > 1e-9) {
-    // Tuned at another knob than the CPG's controller: a schedule entry at that knob; the rest stay.
+  if (schedule_entry) {
+    // The CPG as it was, its schedule's entry at this knob replaced.
     result.cpg = cpg;
     auto& schedule = result.cpg.speed_schedule;
     std::erase_if(schedule, [&](const ScheduledController& e) { return std::abs(e.controller.speed - knob) < 1e-9; });
