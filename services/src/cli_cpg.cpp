@@ -148,6 +148,8 @@ void add_cpg_run_command(CLI::App& cpg) {
 struct GaitArgs {
   std::string model, generic_model, cpg, kinematics, contacts, out;
   double start = -1;
+  double entrainment = -1;  // < 0: the controller's
+  std::vector<double> entrainment_phases;  // right, left; empty: the controller's
   ReproducedGaitOptions options;
   bool no_residuals = false, no_foot_fit = false;
   int foot_spheres = 0;  // 0: the CPG controller's feet, else 2
@@ -231,6 +233,8 @@ void run_gait(const GaitArgs& g) {
     std::printf("controller from the CPG: reflex %.1f / %.2f, %s, %s residuals\n", o.reflex_kp, o.reflex_kv,
                 o.phase_indexed_reference ? "reference by phase" : "reference by time", o.pelvis_residuals ? "with" : "without");
   }
+  if (g.entrainment >= 0) o.entrainment.share = g.entrainment;  // given: they win over the controller's
+  if (g.entrainment_phases.size() == 2) o.entrainment.phase_r = g.entrainment_phases[0], o.entrainment.phase_l = g.entrainment_phases[1];
   const ReproducedGaitResult r = reproduce_gait(model, driving, kin, contacts, o);
   print_warnings(r.warnings);
   write_storage_atomic(reproduced_gait_motion_table(model, r), g.out + "_gait.mot");
@@ -274,6 +278,8 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
                    "integrator tolerances every tuning walk is taken at (each one more simulation), so the controller walks by its "
                    "own stability, not one tolerance's integration error, e.g. 5e-4 2e-3 (default: --tolerance alone)")
       ->check(CLI::Range(1e-8, 0.1));
+  gait->add_flag("--tune-entrainment", g->tuning.tune_entrainment,
+                 "tuning: also search the CPG's entrainment, the share of its phase error made up at each touchdown (see --entrainment)");
   gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,
                    "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (deg RMS) costs as much as a fall")
       ->check(CLI::Range(0.0, 90.0));
@@ -331,6 +337,14 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--step-time", g->options.ground_step_time_s,
                    "when the step's edge reaches where the pelvis started (carried by a treadmill's belt), s")
       ->capture_default_str();
+  gait->add_option("--entrainment", g->entrainment,
+                   "the CPG's entrainment by phase resetting: at each touchdown this share (0-1) of its phase error against the "
+                   "foot's heel-strike phase is made up over about 0.1 s (default: the controller's, else 0: open loop)")
+      ->check(CLI::Range(0.0, 1.0));
+  gait->add_option("--entrainment-phases", g->entrainment_phases,
+                   "the heel-strike phases (0-1 of the CPG's cycle) --entrainment resets the right and the left foot's touchdowns to "
+                   "(default: the controller's, else 0 0.5)")
+      ->expected(2);
   gait->add_option("--reflex-kp", g->options.reflex_kp, "joint-angle reflex gain, excitation per (m x rad)")->capture_default_str();
   gait->add_option("--reflex-kv", g->options.reflex_kv, "joint-speed reflex gain, excitation per (m x rad/s)")->capture_default_str();
   gait->add_option("--tolerance", g->options.integrator_tolerance, "integrator error tolerance (relative and absolute)")

@@ -462,7 +462,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   // The stage's ground steps, pushes and tolerances reach the tuner: each candidate's cost is the mean
   // over its walks, so the start's cost changes; a push needs three numbers, a tolerance is positive.
   std::ofstream(dir + "/perturbed.json")
-      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "control_interval_s": 0.0025, "tolerance": 8e-3}})";
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "control_interval_s": 0.0025, "tolerance": 8e-3, "tune_entrainment": true}})";
   const CliRun perturbed = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/perturbed.json -o " + dir + "/perturbed");
   ASSERT_EQ(perturbed.status, 0) << perturbed.output;
   const nlohmann::json p = nlohmann::json::parse(cpgait::text::read_file(dir + "/perturbed/w_gait.json"));
@@ -470,6 +470,11 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_EQ(p["tuning"]["pushes_N_s"], nlohmann::json::array({0, 0, -30}));
   EXPECT_EQ(p["tuning"]["tolerances"], nlohmann::json::array({1e-3, 1e-2}));
   EXPECT_EQ(p["tuning"]["step_at"], nlohmann::json::array({0.3, 0.7}));
+  // The entrainment was searched: the tuned controller's share and phases moved off the untuned 0, 0, 0.5.
+  EXPECT_EQ(p["tuning"]["entrainment"], true);
+  const nlohmann::json searched = p["tuning"]["controller"]["entrainment"];
+  EXPECT_NE(searched, nlohmann::json({{"share", 0.0}, {"phase_r", 0.0}, {"phase_l", 0.5}})) << searched.dump();
+  EXPECT_FALSE(gait["tuning"]["entrainment"].get<bool>());
   // The walk's tolerance and controller interval: the defaults recorded, or the options', which the CLI
   // replays alike (the motion sampled at the interval).
   EXPECT_EQ(gait["tolerance"].get<double>(), 1e-3);
@@ -490,6 +495,17 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const CliRun slow_control = run("gait --model " + model + " --cpg " + dir + "/perturbed/w_cpg_tuned.json --kinematics " + dir +
                                   "/perturbed/w_ik.mot --duration 0.5 --control-interval 0.05 -o " + dir + "/slow_control");
   expect_refused(slow_control, 105, "--control-interval");  // CLI11's validation error
+  // --entrainment and --entrainment-phases reach the walk (recorded in _gait.json), a share above 1 is refused.
+  const CliRun entrained = run("gait --model " + model + " --cpg " + dir + "/perturbed/w_cpg_tuned.json --kinematics " + dir +
+                               "/perturbed/w_ik.mot --duration 0.5 --entrainment 0.5 --entrainment-phases 0.1 0.6 -o " + dir + "/entrained");
+  ASSERT_EQ(entrained.status, 0) << entrained.output;
+  const nlohmann::json e = nlohmann::json::parse(cpgait::text::read_file(dir + "/entrained_gait.json"));
+  EXPECT_EQ(e["entrainment"]["share"].get<double>(), 0.5) << e.dump();
+  EXPECT_EQ(e["entrainment"]["phase_r"].get<double>(), 0.1);
+  EXPECT_EQ(e["entrainment"]["phase_l"].get<double>(), 0.6);
+  const CliRun over = run("gait --model " + model + " --cpg " + dir + "/perturbed/w_cpg_tuned.json --kinematics " + dir +
+                          "/perturbed/w_ik.mot --duration 0.5 --entrainment 2 -o " + dir + "/over");
+  expect_refused(over, 105, "--entrainment");
   EXPECT_GT(std::abs(p["tuning"]["cost"][0].get<double>() - gait["tuning"]["cost"][0].get<double>()), 1e-6) << p["tuning"].dump();
   std::ofstream(dir + "/bad_push.json") << R"({"gait": {"tune_evaluations": 8, "tune_pushes_N_s": [0, 0]}})";
   const CliRun bad_stage_push = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_push.json -o " + dir + "/bad_stage");

@@ -6,6 +6,7 @@
 #include "cpgait/capture/input_error.h"
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/cpg/cpg_phase.h"
+#include "cpgait/cpg/phase_resetting.h"
 #include "cpgait/cpg/matsuoka.h"
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/model/osim_reader.h"
@@ -207,10 +208,24 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "controller.foot_spheres");
   }
+  // The entrainment share: 0 when the JSON predates it, as written otherwise, within [0, 1] only.
+  EXPECT_EQ(k.entrainment, 0.0);
+  named.controller->entrainment = 0.4;
+  named.controller->entrainment_phase_r = 0.05, named.controller->entrainment_phase_l = 0.6;
+  const CpgController entrained = *CpgModel::from_json(named.to_json(), "model.json").controller;
+  EXPECT_EQ(std::vector<double>({entrained.entrainment, entrained.entrainment_phase_r, entrained.entrainment_phase_l}), std::vector<double>({0.4, 0.05, 0.6}));
+  bad = named.to_json();
+  bad["controller"]["entrainment"]["share"] = 1.2;
+  try {
+    CpgModel::from_json(bad, "model.json");
+    ADD_FAILURE() << "an entrainment share of 1.2 accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "controller.entrainment.share");
+  }
 }
 
 // A gain schedule over the speed knob: at a tuned knob its own controller and amplitude; between two,
-// reflex gains and amplitude geometrically and balance gains linearly interpolated; held beyond the
+// reflex gains and amplitude geometrically and balance gains and entrainment linearly interpolated; held beyond the
 // ends; the start and beginning the CPG controller's. It round-trips through the JSON, and an entry
 // at a knob that is not positive is refused naming it.
 TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
@@ -219,7 +234,8 @@ TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
   m.amplitude = 0.6;
   m.controller = CpgController{100, 10, true, false, 2.0, 2.0, 0.3, 0.1, 0.5, 0.0, 0.618, 0.25, 1.0};
   const CpgController slow{400, 40, true, false, 4.0, 1.0, 0.7, 0.3, 0.9, -0.1, 9.0, 9.0, 0.8};
-  const CpgController fast{200, 20, true, false, 3.0, 3.0, 0.5, 0.2, 0.7, 0.1, 9.0, 9.0, 1.2};
+  const CpgController fast{200, 20, true, false, 3.0, 3.0, 0.5, 0.2, 0.7, 0.1, 9.0, 9.0, 1.2, 2, 0.6};
+  m.controller->entrainment = 0.2;
   m.speed_schedule = {{fast, 0.5}, {slow, 1.2}};  // any order
   const CpgModel at09 = scheduled_at_speed(m, 0.9);
   const CpgController& k = *at09.controller;
@@ -233,6 +249,7 @@ TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
   EXPECT_EQ(k.speed, 0.9);
   EXPECT_NEAR(scheduled_at_speed(m, 1.1).controller->lateral_d, 0.4, 1e-12);
   EXPECT_NEAR(scheduled_at_speed(m, 1.1).amplitude, std::sqrt(0.6 * 0.5), 1e-12);
+  EXPECT_NEAR(scheduled_at_speed(m, 1.1).controller->entrainment, 0.4, 1e-12);  // linearly, as the balance gains
   for (double knob : {0.8, 0.5}) {
     const CpgModel held = scheduled_at_speed(m, knob);
     EXPECT_EQ(held.controller->reflex_kp, 400) << knob;
@@ -357,4 +374,60 @@ TEST(CpgPhase, ReadFromTheRhythmNeuronsAtAnySpeed) {
   }
   std::printf("[info] phase error over 1.7 cycles at speeds 1 and 1.3: %.2e of a cycle\n", worst);
   EXPECT_LT(worst, 2e-3);
+}
+
+// Phase resetting's touchdowns: a foot becoming loaded counts, not a foot loaded from the first call,
+// nor one touching down again within 0.75 cycles of its last (a toe's touch after toe-off); when both
+// feet touch down at once the right's counts.
+TEST(PhaseResetting, TouchdownsCountOncePerStepOfEachFoot) {
+  PhaseResetting p(PhaseResettingOptions{});
+  const double cycle = 1.2;
+  EXPECT_EQ(p.touchdown(0.0, true, false, cycle), -1);   // loaded from the start
+  EXPECT_EQ(p.touchdown(0.5, false, false, cycle), -1);
+  EXPECT_EQ(p.touchdown(0.6, false, true, cycle), 1);    // the left lands
+  EXPECT_EQ(p.touchdown(1.0, true, true, cycle), 0);     // the right's first counted touchdown
+  EXPECT_EQ(p.touchdown(1.7, false, true, cycle), -1);
+  EXPECT_EQ(p.touchdown(1.75, true, true, cycle), -1);   // 0.75 s after its last: within 0.9 s
+  EXPECT_EQ(p.touchdown(1.8, false, false, cycle), -1);
+  EXPECT_EQ(p.touchdown(2.0, true, true, cycle), 0);     // both at once (the left's 1.4 s after its last)
+  EXPECT_EQ(p.touchdown(2.5, false, false, cycle), -1);
+  EXPECT_EQ(p.touchdown(3.0, false, true, cycle), 1);    // the left's counted at 2.0 too: 1.0 s after
+  EXPECT_EQ(p.touchdowns(), 0);                          // resets are the caller's
+}
+
+// Phase resetting's making up: the share of the phase error, the nearer way round, is made up in
+// full by the rates (their excess over 1 times dt, in cycles), at most 1.5x or 0.5x, with the time
+// constant given; a new touchdown replaces what was left.
+TEST(PhaseResetting, RatesMakeUpTheShareOfThePhaseError) {
+  PhaseResettingOptions o;
+  o.share = 0.5;
+  PhaseResetting p(o);
+  const double cycle = 1.2, dt = 0.001;
+  auto made_up = [&](double seconds, double* lowest = nullptr, double* highest = nullptr) {
+    double sum = 0;
+    for (int k = 0; k < static_cast<int>(seconds / dt); ++k) {
+      const double r = p.rate(dt, cycle);
+      if (lowest) *lowest = std::min(*lowest, r);
+      if (highest) *highest = std::max(*highest, r);
+      sum += (r - 1) * dt / cycle;
+    }
+    return sum;
+  };
+  EXPECT_EQ(p.rate(dt, cycle), 1.0);  // nothing to make up
+  p.reset(0, 0.9);                    // the right lands 0.1 cycles early: the CPG speeds up
+  EXPECT_NEAR(p.left_to_make_up(), 0.05, 1e-12);
+  double lowest = 2, highest = 0;
+  EXPECT_NEAR(made_up(3.0, &lowest, &highest), 0.05, 1e-9);
+  EXPECT_EQ(highest, 1.5);            // 0.05 x 1.2 / 0.1 = 0.6: clamped
+  EXPECT_GE(lowest, 1.0);
+  p.reset(1, 0.2);                    // the left lands 0.3 cycles late
+  EXPECT_NEAR(made_up(3.0), 0.15, 1e-9);
+  p.reset(1, 0.95);                   // 0.45 early the nearer way, not 0.55 late
+  EXPECT_NEAR(p.left_to_make_up(), -0.225, 1e-12);
+  p.reset(0, 0.02);                   // replaces it
+  const double first = made_up(0.1);  // one time constant once unclamped: most of it
+  EXPECT_LT(first, -0.006);
+  EXPECT_GT(first, -0.01);
+  EXPECT_NEAR(first + made_up(3.0), -0.01, 1e-9);
+  EXPECT_EQ(p.touchdowns(), 4);
 }

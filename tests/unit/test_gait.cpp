@@ -538,6 +538,49 @@ TEST(ReproducedGait, StandingRaisesTheReflexGains) {
   EXPECT_GT((soft.excitations.bottomRows(soft.q.rows() - frozen - 10) - firm.excitations.bottomRows(soft.q.rows() - frozen - 10)).cwiseAbs().maxCoeff(), 1e-3);
 }
 
+// Entrainment by phase resetting in the walk: the still walker, dropped 2 cm onto the ground (its
+// CPG's excitations alone, reflexes off). Without entrainment its CPG is the open-loop CPG exactly;
+// with it, the same up to the first touchdown and another after it; a share outside [0, 1] is refused
+// naming the field. (phase_resetting's own figures: test_cpg.cpp.)
+TEST(ReproducedGait, EntrainmentMovesTheCpgFromTheFirstTouchdown) {
+  StillWalker w;
+  w.feet.ground_height_m -= 0.02;
+  ReproducedGaitOptions o;
+  o.start_time_s = 0.5;
+  o.duration_s = 1.0;
+  o.reflex_kp = o.reflex_kv = 0;
+  o.fall_height_fraction = -1e9;  // sagging on the pelvis' soft springs does not matter here
+  const double dt = o.control_interval_s;
+  const CpgRun open = run_cpg(w.cpg, o.duration_s, dt);  // row i: after i + 1 steps
+  const ReproducedGaitResult none = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+  ASSERT_EQ(none.excitations.rows(), open.excitations.rows() + 1);
+  EXPECT_LT((none.excitations.bottomRows(open.excitations.rows()) - open.excitations).cwiseAbs().maxCoeff(), 1e-12);
+  // The touchdown: the first sample with a foot bearing over 20 N.
+  Eigen::Index touchdown = -1;
+  for (Eigen::Index k = 0; k < none.contact_force_N.rows() && touchdown < 0; ++k)
+    for (Eigen::Index s = 0; s < static_cast<Eigen::Index>(w.feet.spheres.size()); ++s)
+      if (none.contact_force_N(k, 3 * s + 1) > 20.0) touchdown = k;
+  ASSERT_GT(touchdown, 10) << "the walker stood on the ground from the start";
+  o.entrainment.share = 1;
+  const ReproducedGaitResult entrained = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+  const Eigen::Index n = touchdown + 1;  // the rows before the CPG's first step after the touchdown
+  EXPECT_LT((entrained.excitations.topRows(n) - none.excitations.topRows(n)).cwiseAbs().maxCoeff(), 1e-12);
+  const double after = (entrained.excitations.row(n + 50) - none.excitations.row(n + 50)).cwiseAbs().maxCoeff();
+  std::printf("[info] touchdown at %.3f s; 50 ms later the entrained CPG's excitations differ by up to %.3f\n", touchdown * dt, after);
+  EXPECT_GT(after, 1e-3);
+  EXPECT_EQ(none.entrainment_resets, 0);
+  EXPECT_GE(entrained.entrainment_resets, 1);
+  EXPECT_EQ(reproduced_gait_metrics(w.m, entrained)["entrainment"]["resets"], entrained.entrainment_resets);
+  EXPECT_FALSE(reproduced_gait_metrics(w.m, none).contains("entrainment"));
+  o.entrainment.share = 1.5;
+  try {
+    reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+    ADD_FAILURE() << "an entrainment share of 1.5 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "entrainment");
+  }
+}
+
 namespace {
 
 // Short tunings on the still walker: one thread, 0.3 s walks from its heel strike at 0.5 s.
@@ -679,6 +722,24 @@ TEST(GaitTuning, InitialStepSizesTheSearch) {
   GaitTuningOptions zero = q.t;
   zero.initial_step = 0;
   EXPECT_THROW(q.tune(zero), std::invalid_argument);
+}
+
+// The entrainment share is searched only when asked: from a controller's 0.5 it stays 0.5 without
+// tune_entrainment, and moves (within [0, 1]) with it.
+TEST(GaitTuning, EntrainmentIsSearchedWhenAsked) {
+  const QuickTuning q(8);
+  CpgModel cpg = q.w.cpg;
+  cpg.controller = CpgController{};
+  cpg.controller->entrainment = 0.5;
+  GaitTuningOptions t = q.t;
+  auto tuned_share = [&] { return tune_gait_controller(q.w.m, cpg, q.w.reference, q.w.feet, q.o, t).cpg.controller->entrainment; };
+  EXPECT_EQ(tuned_share(), 0.5);
+  t.tune_entrainment = true;
+  const double searched = tuned_share();
+  std::printf("[info] entrainment after 8 simulations: %.4f\n", searched);
+  EXPECT_NE(searched, 0.5);
+  EXPECT_GE(searched, 0.0);
+  EXPECT_LE(searched, 1.0);
 }
 
 // Joints no muscle crosses (the walker's back) are held at the trial's mean as a locked joint would

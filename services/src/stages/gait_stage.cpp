@@ -21,6 +21,7 @@ struct GaitStageOptions {
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
   double tune_rotation_limit_deg = 0;
+  bool tune_entrainment = false;
   int foot_spheres = 2;
   std::vector<double> tune_steps_m, tune_pushes_N_s, tune_tolerances;
   std::vector<double> tune_step_at = {0.5};
@@ -57,6 +58,9 @@ struct GaitStageOptions {
                     NumberRange{0.5, 30.0, true})
             .integer("tune_rounds", &GaitStageOptions::tune_rounds, 1, 10,
                      "CMA-ES restarts, each from the last best, their horizons rising evenly to tune_horizon_s")
+            .boolean("tune_entrainment", &GaitStageOptions::tune_entrainment,
+                     "tuning: also search the CPG's entrainment by phase resetting, the share of its phase error made up at each "
+                     "touchdown (0-1)")
             .number("tune_rotation_limit_deg", &GaitStageOptions::tune_rotation_limit_deg, "deg",
                     "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (RMS) costs as much as a fall (0: no bound)",
                     NumberRange{0.0, 90.0})
@@ -167,6 +171,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.horizon_s = o.tune_horizon_s;
   to.rounds = o.tune_rounds;
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
+  to.tune_entrainment = o.tune_entrainment;
   to.foot_spheres = o.foot_spheres;
   to.ground_steps_m = o.tune_steps_m;
   if (!o.tune_step_at.empty()) to.ground_step_at = o.tune_step_at;
@@ -176,7 +181,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"rotation_limit_deg", to.worst_rotation_limit_deg},
+                           {"horizon_s", to.horizon_s}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;

@@ -603,6 +603,9 @@ CpgModel scheduled_at_speed(const CpgModel& cpg, double knob) {
   k.lateral_v = lin(a.controller.lateral_v, b.controller.lateral_v);
   k.sagittal_d = lin(a.controller.sagittal_d, b.controller.sagittal_d);
   k.sagittal_v = lin(a.controller.sagittal_v, b.controller.sagittal_v);
+  k.entrainment = lin(a.controller.entrainment, b.controller.entrainment);
+  k.entrainment_phase_r = lin(a.controller.entrainment_phase_r, b.controller.entrainment_phase_r);
+  k.entrainment_phase_l = lin(a.controller.entrainment_phase_l, b.controller.entrainment_phase_l);
   k.speed = knob;
   m.amplitude = geo(a.amplitude, b.amplitude);
   return m;
@@ -619,6 +622,7 @@ nlohmann::json CpgController::to_json() const {
           {"foot_spheres", foot_spheres},
           {"trunk_kp", trunk_kp},
           {"trunk_kv", trunk_kv},
+          {"entrainment", {{"share", entrainment}, {"phase_r", entrainment_phase_r}, {"phase_l", entrainment_phase_l}}},
           {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}}};
 }
 
@@ -682,6 +686,15 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         fail(field + ".foot_spheres", "the feet it was tuned on: 2 or 5 spheres per foot, or 0 for a contact file");
       k.trunk_kp = c.value("trunk_kp", k.trunk_kp);
       k.trunk_kv = c.value("trunk_kv", k.trunk_kv);
+      if (c.contains("entrainment")) {
+        const auto& e = c["entrainment"];
+        if (!e.is_object()) fail(field + ".entrainment", "expected {\"share\", \"phase_r\", \"phase_l\"}");
+        k.entrainment = e.value("share", k.entrainment);
+        k.entrainment_phase_r = e.value("phase_r", k.entrainment_phase_r);
+        k.entrainment_phase_l = e.value("phase_l", k.entrainment_phase_l);
+        if (!(k.entrainment >= 0 && k.entrainment <= 1)) fail(field + ".entrainment.share", "the share of the phase error made up at a touchdown lies in [0, 1]");
+        if (!std::isfinite(k.entrainment_phase_r) || !std::isfinite(k.entrainment_phase_l)) fail(field + ".entrainment.phase_r", "heel-strike phases must be finite numbers");
+      }
       if (c.contains("foot_placement")) {
         const auto& fp = c["foot_placement"];
         k.lateral_d = fp.value("lateral_d", k.lateral_d);

@@ -93,6 +93,11 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   if (contacts_in.spheres.empty()) throw InputError(reference.name, 0, "contacts", "the reproduced gait needs contact spheres");
   if (!(o.control_interval_s > 0 && o.control_interval_s <= 0.01))
     throw InputError(reference.name, 0, "control_interval_s", "the controller's interval must lie in (0, 0.01] s, not " + std::to_string(o.control_interval_s));
+  if (!(o.entrainment.share >= 0 && o.entrainment.share <= 1))
+    throw InputError(reference.name, 0, "entrainment", "the share of the phase error made up at a touchdown must lie in [0, 1], not " +
+                                                        std::to_string(o.entrainment.share));
+  if (!(o.entrainment.time_s > 0))
+    throw InputError(reference.name, 0, "entrainment.time_s", "the entrainment's time constant must be positive");
   // A treadmill's belt runs at the speed knob's pace too: the reference is time-scaled, its strides
   // keep their length, so the belt must move them back that much faster.
   ContactSet contacts = contacts_in;
@@ -173,8 +178,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
         template_q.back() += q / cycles, template_u.back() += u / cycles, template_a.back() += a / cycles;
       }
     }
-    phase_table = cpg_phase_table(cpg_in);
   }
+  if (o.phase_indexed_reference || o.entrainment.share > 0) phase_table = cpg_phase_table(cpg_in);
   // Walk -> stand: the belt's share of its speed once the walk froze (frozen_at_s, < 0: walking),
   // easing to 0 over stop_over_s.
   const double stop_over_s = o.stop_over_s > 0 ? o.stop_over_s : 0.3;
@@ -378,6 +383,11 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   std::vector<double> rec_pelvis_speed;
   std::vector<char> rec_com_supported;
   Eigen::VectorXd u_in(network.size()), sig(signals.size());
+  // Entrainment: each sphere's side, and the resetting's state.
+  std::vector<int> sphere_side;
+  for (const auto& sp : contacts.spheres) sphere_side.push_back(side_of(sp.name));
+  PhaseResetting resetting(o.entrainment);
+  const double cycle_now_s = cpg_in.cycle_s / cpg.speed;  // the CPG's cycle at the speed knob
   for (int k = 0; k <= steps; ++k) {
     if (progress && progress->cancelled()) throw std::runtime_error("reproduced gait cancelled");
     const double t = k * dt;
@@ -500,7 +510,16 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       }
     }
     u_in = signals.empty() ? Eigen::VectorXd::Zero(network.size()) : Eigen::VectorXd(cpg.feedback_gains * sig);
-    if (!frozen) matsuoka_step(network, neurons, dt, u_in, scratch);  // frozen: it stops
+    double rate = 1;  // the network's rate: entrainment's time warp
+    if (o.entrainment.share > 0 && !frozen) {
+      double side_load[2] = {0, 0};
+      for (std::size_t sp = 0; sp < contacts.spheres.size(); ++sp)
+        if (sphere_side[sp] >= 0) side_load[sphere_side[sp]] += ws.contact_force_N[sp].y();
+      const int side = resetting.touchdown(t, side_load[0] > kContactThresholdN, side_load[1] > kContactThresholdN, cycle_now_s);
+      if (side >= 0) resetting.reset(side, cpg_phase(phase_table, neurons));
+      rate = resetting.rate(dt, cycle_now_s);
+    }
+    if (!frozen) matsuoka_step(network, neurons, rate * dt, u_in, scratch);  // frozen: it stops
     cpg_excitation_now();
     if (frozen) {
       const double keep = o.stand_fade_s > 0 ? std::max(0.0, 1 - (t - frozen_at_s) / o.stand_fade_s) : 0.0;
@@ -535,6 +554,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     if (progress) progress->report(double(k + 1) / steps, "reproduced gait");
   }
 
+  r.entrainment = o.entrainment;
+  r.entrainment_resets = resetting.touchdowns();
   // Tables and metrics.
   const int ns = static_cast<int>(r.time_s.size());
   r.q.resize(ns, nq);
@@ -648,6 +669,9 @@ ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOpti
   o.phase_indexed_reference = c.phase_reference;
   o.pelvis_residuals = c.pelvis_residuals;
   o.balance = {c.trunk_kp, c.trunk_kv, c.lateral_d, c.lateral_v, c.sagittal_d, c.sagittal_v};
+  o.entrainment.share = c.entrainment;
+  o.entrainment.phase_r = c.entrainment_phase_r;
+  o.entrainment.phase_l = c.entrainment_phase_l;
   if (c.start_time_s >= 0) o.start_time_s = c.start_time_s;
   if (c.begin_time_s >= 0) o.begin_time_s = c.begin_time_s;
   return o;
@@ -711,6 +735,8 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   j["speed_m_s"] = r.speed_m_s;
   j["distance_m"] = r.distance_m;
   j["contact_phases"] = reproduced_gait_contact_phases(r);
+  if (r.entrainment.share > 0)
+    j["entrainment"] = {{"share", r.entrainment.share}, {"phase_r", r.entrainment.phase_r}, {"phase_l", r.entrainment.phase_l}, {"resets", r.entrainment_resets}};
   if (r.frozen_at_s >= 0) j["stand"] = {{"frozen_at_s", r.frozen_at_s}, {"stopped_at_s", r.stopped_at_s >= 0 ? nlohmann::json(r.stopped_at_s) : nlohmann::json(nullptr)}, {"stood_s", r.stood_s}};
   j["fell_at_s"] = r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr);
   j["pelvis_residual_force_percent_bw"] = r.mean_residual_force_percent_bw;

@@ -1,5 +1,6 @@
 #include "cpgait/gait/tune_gait_controller.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -15,10 +16,13 @@ namespace {
 
 // The searched parameters: log(kp / kp0), log(kv / kv0), the amplitude's factor 1 + 0.3 tanh(p2) (a
 // bounded change: the CPG's patterns are the trial's), then the balance gains (simbicon_balance.h) as
-// the start's plus these steps per unit: trunk shares 1, foot placement 0.3 m/m and 0.1 s.
+// the start's plus these steps per unit: trunk shares 1, foot placement 0.3 m/m and 0.1 s; with
+// tune_entrainment, the entrainment share as the start's plus 0.25 per unit, within [0, 1], and the
+// feet's heel-strike phases as the start's plus 0.05 per unit.
 constexpr double kAmplitudeRange = 0.3;
-constexpr int kParameters = 9;
+constexpr int kParameters = 9, kEntrainmentParameters = 3;
 const double kBalanceStep[6] = {1.0, 1.0, 0.3, 0.1, 0.3, 0.1};
+constexpr double kEntrainmentStep = 0.25, kHeelStrikePhaseStep = 0.05;
 
 struct Candidate {
   CpgController controller;
@@ -32,6 +36,11 @@ Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const Rep
   double* balance[6] = {&k.controller.trunk_kp, &k.controller.trunk_kv, &k.controller.lateral_d,
                         &k.controller.lateral_v, &k.controller.sagittal_d, &k.controller.sagittal_v};
   for (int i = 0; i < 6; ++i) *balance[i] += kBalanceStep[i] * p[3 + i];
+  if (p.size() == kParameters + kEntrainmentParameters) {
+    k.controller.entrainment = std::clamp(start.entrainment + kEntrainmentStep * p[kParameters], 0.0, 1.0);
+    k.controller.entrainment_phase_r = start.entrainment_phase_r + kHeelStrikePhaseStep * p[kParameters + 1];
+    k.controller.entrainment_phase_l = start.entrainment_phase_l + kHeelStrikePhaseStep * p[kParameters + 2];
+  }
   k.controller.phase_reference = true;
   k.controller.pelvis_residuals = false;
   k.controller.start_time_s = base.start_time_s;
@@ -167,7 +176,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     return cost;
   };
   GaitTuningResult result;
-  const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(kParameters);
+  const int parameters = kParameters + (t.tune_entrainment ? kEntrainmentParameters : 0);
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(parameters);
   // The start, scored over the whole horizon for the summary.
   result.summary.start_cost = score(decode(x0, *working.controller, base), &result.summary.start_walked_s, true);
   double cost = result.summary.start_cost, walked = result.summary.start_walked_s;
@@ -182,8 +192,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     co.max_evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
     co.num_threads = t.num_threads;
     co.seed = t.seed + static_cast<unsigned long long>(round);
-    co.lower = Eigen::VectorXd::Constant(kParameters, -3.0);  // gains from 1/20 of the start's ...
-    co.upper = Eigen::VectorXd::Constant(kParameters, 3.0);   // ... to 20 times; balance steps +-3
+    co.lower = Eigen::VectorXd::Constant(parameters, -3.0);  // gains from 1/20 of the start's ...
+    co.upper = Eigen::VectorXd::Constant(parameters, 3.0);   // ... to 20 times; balance steps +-3
     co.upper[0] = 4.0;                                         // kp to 55 times
     const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, from, base), nullptr, false); }, x0, co);
     cost = round_start_cost, walked = round_start_walked;

@@ -42,6 +42,9 @@ struct CpgController {
   // The feet it was tuned on: default_foot_contacts' spheres per foot (2 or 5), 0 for a contact file's.
   // A replay stands on them unless told otherwise; on other feet a tuned walk is another walk.
   int foot_spheres = 2;
+  // Phase resetting at foot contact (ReproducedGaitOptions::entrainment): the share 0-1 of the phase
+  // error made up (default 0: none), and the right and left feet's heel-strike phases (0, 0.5).
+  double entrainment = 0, entrainment_phase_r = 0, entrainment_phase_l = 0.5;
 
   nlohmann::json to_json() const;  // the CPG JSON's "controller" (CpgModel::from_json reads it)
 };
@@ -110,7 +113,7 @@ struct CpgFitResult {
 
 // The CPG as it walks at speed knob `knob`: its controller and amplitude interpolated between those
 // tuned at the nearest knobs below and above (its controller's and its speed_schedule's; reflex gains
-// and amplitude geometrically, balance gains linearly; held beyond the ends). The start and
+// and amplitude geometrically, balance gains and entrainment linearly; held beyond the ends). The start and
 // beginning stay the controller's. Unchanged without a schedule or a controller.
 CpgModel scheduled_at_speed(const CpgModel& cpg, double knob);
 

@@ -21,6 +21,7 @@
 
 #include "cpgait/capture/storage.h"
 #include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/cpg/phase_resetting.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/simbicon_balance.h"
 #include "cpgait/gait/standing_balance.h"
@@ -83,6 +84,9 @@ struct ReproducedGaitOptions {
   // the simulation's time, so that the speed knob and entrainment move them with the CPG. The pelvis
   // translations keep the trial's. Needs a full cycle of reference after start_time_s. Default off.
   bool phase_indexed_reference = false;
+  // The CPG's entrainment by phase resetting at foot contact (phase_resetting.h; a touchdown is a
+  // foot's spheres coming to bear over 20 N); its share 0 (the default) runs the rhythm open loop.
+  PhaseResettingOptions entrainment;
   // Balance feedback into the reflex (simbicon_balance.h); off by default. The reference pose it
   // compares against is the reflexes'; the reference velocity the trial's mean pelvis velocity.
   SimbiconGains balance;
@@ -136,6 +140,9 @@ struct ReproducedGaitResult {
   double mean_residual_moment_Nm = 0;
   double fell_at_s = -1;                        // < 0: did not fall
   double distance_m = 0;                        // pelvis horizontal travel
+  // The CPG's entrainment (ReproducedGaitOptions::entrainment), and the touchdowns that reset its phase.
+  PhaseResettingOptions entrainment;
+  int entrainment_resets = 0;
   // Walk -> stand (stop_time_s): when the walk froze, and the longest stretch after it with the
   // pelvis at rest (horizontal speed over the ground below 0.1 m/s) and the centre of mass over the
   // support polygon of the loaded contact spheres (a planar model's: between them along x): when it

@@ -1,6 +1,7 @@
 #pragma once
 // Tuning the reproduced gait's controller to walk without residual actuators: CMA-ES (cma_es.h) over
-// the joint reflex's gains, the CPG's amplitude and the balance feedback's gains, each candidate a
+// the joint reflex's gains, the CPG's amplitude and the balance feedback's gains (and optionally the
+// CPG's entrainment at foot contact), each candidate a
 // few simulations of the gait (reproduce_gait, no residuals, reflex targets from the trial's cycle at
 // the CPG's phase: one per speed knob, ground step at each place and push, all at each integrator
 // tolerance), each scored by
@@ -65,6 +66,10 @@ struct GaitTuningOptions {
   // CMA-ES' initial step size in the searched parameters (1: a factor e in a reflex gain, a trunk
   // share of 1; default 0.5); smaller (0.15) refines a controller already tuned.
   double initial_step = 0.5;
+  // Also search the entrainment (CpgController::entrainment, the share of the CPG's phase error made
+  // up at each touchdown, from the start's, 0.25 per unit step, within [0, 1]; and the feet's
+  // heel-strike phases it entrains to, 0.05 per unit) (default false: kept).
+  bool tune_entrainment = false;
   // The feet the walks stand on (`contacts`), recorded in the result's controller (CpgController::
   // foot_spheres): default_foot_contacts' spheres per foot, 0 for a contact file's (default 2). A
   // speed knob's entry is tuned on the controller's feet only (else std::invalid_argument).
