@@ -1,8 +1,9 @@
 #pragma once
 // The reproduced gait (the seed's applied motion): the muscle-driven model on foot-ground contact
 // spheres, its muscles excited by a fitted CPG (cpg_fit.h) with the CPG's own feedback (joint
-// angles, foot contact into the neurons, gains in its JSON) and a spinal-reflex-like joint-angle
-// feedback into the excitations; pelvis residual actuators optional and reported.
+// angles, foot contact into the neurons, gains in its JSON; its phase reset at touchdowns,
+// phase_resetting.h) and a spinal-reflex-like joint-angle feedback into the excitations; pelvis
+// residual actuators optional and reported.
 //
 // Every control interval (1 ms): the CPG advances one step with its feedback signals; each muscle's
 // excitation is the CPG's plus  kp * sum_c r_mc (q_ref,c - q_c) + kv * sum_c r_mc (u_ref,c - u_c)
