@@ -9,8 +9,8 @@ int PhaseResetting::touchdown(double t_s, bool loaded_r, bool loaded_l, double c
   const bool loaded[2] = {loaded_r, loaded_l};
   int side = -1;
   for (int s = 1; s >= 0; --s) {
-    if (!first_ && loaded[s] && !loaded_[s] && (!any_[s] || t_s - last_s_[s] > o_.refractory_cycles * cycle_s)) {
-      last_s_[s] = t_s, any_[s] = true;
+    if (!first_ && loaded[s] && !loaded_[s] && t_s - last_s_[s] > o_.refractory_cycles * cycle_s) {
+      last_s_[s] = t_s;
       side = s;  // the right's wins when both touch down at once
     }
     loaded_[s] = loaded[s];

@@ -383,7 +383,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   std::vector<double> rec_pelvis_speed;
   std::vector<char> rec_com_supported;
   Eigen::VectorXd u_in(network.size()), sig(signals.size());
-  // Entrainment: each sphere's side, and the resetting's state.
+  // Each sphere's foot (0 right, 1 left, -1 neither), for entrainment and the heel strikes; the resetting's state.
   std::vector<int> sphere_side;
   for (const auto& sp : contacts.spheres) sphere_side.push_back(side_of(sp.name));
   PhaseResetting resetting(o.entrainment);
@@ -592,7 +592,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   for (int i = 0; i < ns; ++i) {
     double side_load[2] = {0, 0};
     for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
-      const int side = side_of(contacts.spheres[s].name);
+      const int side = sphere_side[s];
       if (side >= 0) side_load[side] += r.contact_force_N(i, 3 * s + 1);
     }
     load[0].push_back(side_load[0]);

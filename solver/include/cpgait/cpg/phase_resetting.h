@@ -4,6 +4,8 @@
 // each touchdown the CPG's phase error against that foot's heel-strike phase is taken, and a share of
 // it is made up by running the whole network faster or slower for a while, so that every neuron
 // (and whatever reads the CPG's phase) moves along the limit cycle together.
+#include <limits>
+
 namespace cpgait {
 
 struct PhaseResettingOptions {
@@ -35,8 +37,7 @@ class PhaseResetting {
  private:
   PhaseResettingOptions o_;
   bool first_ = true, loaded_[2] = {false, false};
-  double last_s_[2] = {0, 0};
-  bool any_[2] = {false, false};
+  double last_s_[2] = {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
   double debt_ = 0;
   int touchdowns_ = 0;
 };
