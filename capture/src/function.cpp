@@ -1,6 +1,7 @@
 #include "cpgait/capture/function.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace cpgait {
@@ -46,6 +47,7 @@ Function Function::piecewise_linear(std::vector<double> x, std::vector<double> y
   f.b_[n - 1] = f.b_[n - 2];
   f.x_ = std::move(x);
   f.y_ = std::move(y);
+  f.note_spacing();
   return f;
 }
 
@@ -98,6 +100,7 @@ Function Function::simm_spline(std::vector<double> x, std::vector<double> y) {
   f.b_ = std::move(b);
   f.cc_ = std::move(c);
   f.d_ = std::move(d);
+  f.note_spacing();
   return f;
 }
 
@@ -107,11 +110,29 @@ Function Function::scaled(double factor) const {
   return f;
 }
 
+void Function::note_spacing() {
+  const std::size_t n = x_.size();
+  const double h = (x_.back() - x_.front()) / static_cast<double>(n - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(std::abs(x_[i] - (x_.front() + static_cast<double>(i) * h)) <= 0.25 * h)) return;
+  inverse_spacing_ = 1.0 / h;
+}
+
 int Function::interval(double x) const {
   // x_[i] <= x < x_[i+1]; the last knot belongs to the last interval.
+  const int last = static_cast<int>(x_.size()) - 2;
+  if (inverse_spacing_ > 0 && x >= x_.front() && x <= x_.back()) {
+    // Evenly spaced: the guess is within a knot of the answer.
+    int i = std::clamp(static_cast<int>((x - x_.front()) * inverse_spacing_), 0, last);
+    for (int k = 0; k < 3; ++k) {
+      if (i > 0 && x_[i] > x) --i;
+      else if (i < last && x_[i + 1] <= x) ++i;
+      else return i;
+    }
+  }
   auto it = std::upper_bound(x_.begin(), x_.end(), x);
   int i = static_cast<int>(it - x_.begin()) - 1;
-  return std::clamp(i, 0, static_cast<int>(x_.size()) - 2);
+  return std::clamp(i, 0, last);
 }
 
 double Function::second_derivative(double x) const {

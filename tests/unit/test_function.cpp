@@ -1,6 +1,7 @@
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "cpgait/capture/function.h"
@@ -63,4 +64,32 @@ TEST(Function, LinearPolynomialConstantAndMultiplier) {
   EXPECT_NEAR(s.value(kX[3]), 1.14724 * kY[3], 1e-14);
   expect_derivatives_consistent(s, -1.5, 1.5);
   EXPECT_THROW(Function::simm_spline({0, 0, 1}, {1, 2, 3}), std::invalid_argument);
+}
+
+// Sampled trajectories have evenly spaced knots, where the interval is guessed from the spacing
+// rather than bisected: every lookup must find bisection's interval (a wrong one extrapolates a
+// neighbour's segment). Checked on a piecewise-linear function, whose value is exactly
+// y_i + (x - x_i) slope_i, at, just below and between the knots; on times rounded as .sto files
+// round them; and on uneven knots, which keep bisection.
+TEST(Function, EvenlySpacedKnotsFindTheirIntervals) {
+  std::vector<double> even, uneven, y;
+  for (int i = 0; i < 300; ++i) {
+    even.push_back(std::round((0.5 + i / 120.0) * 1e7) / 1e7);  // 120 Hz, 7 decimals
+    uneven.push_back(i + 0.002 * i * i);
+    y.push_back(std::sin(0.37 * i) + 0.1 * i);
+  }
+  for (const auto& x : {even, uneven}) {
+    const Function f = Function::piecewise_linear(x, y);
+    auto expected = [&](double t) {
+      const int n = static_cast<int>(x.size());
+      const int i = std::clamp(static_cast<int>(std::upper_bound(x.begin(), x.end(), t) - x.begin()) - 1, 0, n - 2);
+      return y[i] + (t - x[i]) * ((y[i + 1] - y[i]) / (x[i + 1] - x[i]));
+    };
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      for (double t : {x[i], std::nextafter(x[i], -1e9), i + 1 < x.size() ? 0.5 * (x[i] + x[i + 1]) : x[i]}) {
+        if (t < x.front()) continue;
+        EXPECT_EQ(f.value(t), expected(t)) << "t = " << t << " near knot " << i;
+      }
+    }
+  }
 }

@@ -44,6 +44,10 @@ class Function {
   // Splines: knots x_, values y_, and per-interval coefficients b_, cc_, d_ of
   // y_i + b_i dx + cc_i dx^2 + d_i dx^3.
   std::vector<double> x_, y_, b_, cc_, d_;
+  // 1 / the knots' spacing where they are evenly spaced (a sampled trajectory, whose lookups were a
+  // twentieth of CMC's instructions by bisection); 0: uneven.
+  double inverse_spacing_ = 0;
+  void note_spacing();
   int interval(double x) const;
 };
 
