@@ -203,6 +203,7 @@ ComputedMuscleControlResult computed_muscle_control(const Model& model, const St
   };
   DualNewtonOptions qp;
   qp.tolerance = 1e-9;
+  qp.exact_line_search = true;  // each window warm-starts from the last one's multipliers
 
   // Solves the force distribution for the accelerations qdd_des at state y and time t (OpenSim
   // evaluates it at the window's end, on the predicted state); activation limits from a_lo/a_hi.

@@ -7,6 +7,8 @@
 // gradient b - A y(lambda) and generalized Hessian -A D A^T (D = 1/h on the free variables). Each
 // step solves one m x m system (m = rows of A: 23 coordinates against ~100 actuators in static
 // optimization) and the iteration ends, exactly, once the active set is right: a handful of steps.
+// Along each step the dual is piecewise quadratic: the line search halves from the full step, or
+// starts at the dual's exact maximiser along it where that comes first (exact_line_search).
 // p = 2 is that quadratic program itself; other exponents take sequential quadratic steps from
 // the p = 2 solution, each a feasible descent step with a backtracking line search. Below p = 2
 // the curvature of |x|^p is unbounded at zero and these steps stall, so p < 2 is refused.
@@ -19,10 +21,16 @@ struct DualNewtonOptions {
   double tolerance = 1e-10;   // on |A x - b|_inf, relative to 1 + |b|_inf
   int max_iterations = 200;   // dual Newton steps per quadratic program
   int max_outer_iterations = 50;  // sequential quadratic steps when exponent != 2
+  // Start each line search at the dual's maximiser along the step (found by walking its breakpoints)
+  // where it lies short of the full step. Pays where warm starts cross many bounds (CMC's windows: 6 dual
+  // evaluations per step down to 1, 9 % of its instructions); static optimization's frames gained
+  // nothing (2 % more instructions). Default false.
+  bool exact_line_search = false;
 };
 
 struct DualNewtonSummary {
   int iterations = 0;            // dual Newton steps, all quadratic programs together
+  int line_search_evaluations = 0;  // of the dual, over those steps' line searches
   int outer_iterations = 0;      // sequential quadratic steps (0 for p = 2)
   double equality_residual = 0;  // |A x - b|_inf at the end
   bool converged = false;
