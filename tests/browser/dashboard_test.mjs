@@ -524,11 +524,15 @@ let trialId;
         const run = summary.tolerance_check[i];
         assert.equal(c.walked, run.fell_at_s == null ? `${run.simulated_s.toFixed(1)} s, did not fall` : `fell at ${run.fell_at_s.toFixed(2)} s`);
       });
-      // The plot: the trial's strides and mean, the simulation's strides and mean, each knob's mean;
-      // every mean at 50 % the average of its strides there, the trial's the cycles endpoint's.
+      // The plot: the trial's strides and mean, the simulation's strides and mean, the mean of each
+      // knob that made a right stride (knee_angle_r's strides run between right heel strikes; a knob
+      // of this short search may fall first); every mean at 50 % the average of its strides there,
+      // the trial's the cycles endpoint's.
       await page.selectOption('#gait-cycle-quantity', 'knee_angle_r');
       const p = await page.evaluate(() => { const g = window.__cpgait.plots.gaitCycle; return { groups: g.groups, x: g.data[0] }; });
-      assert.deepEqual(p.groups.map((g) => g.label), ['trial', 'simulated 1×', 'simulated 0.8×', 'simulated 1.2×']);
+      const striding = summary.speed_knobs.filter((k) => k.heel_strikes_s.right.length > 1).map((k) => `simulated ${k.speed_knob}×`);
+      assert.ok(striding.length >= 1, 'no knob made a right stride');
+      assert.deepEqual(p.groups.map((g) => g.label), ['trial', 'simulated 1×', ...striding]);
       assert.equal(p.x[0], 0);
       assert.equal(p.x[100], 100);
       assert.ok(p.groups[1].strides >= 1, 'no simulated stride');
@@ -540,8 +544,12 @@ let trialId;
       const cycles = await (await page.request.get(`${base}/api/v1/trials/${id}/cycles`)).json();
       const knee = cycles.panels.find((x) => x.name === 'kinematics').series.find((x) => x.name === 'knee_angle_r');
       assert.ok(Math.abs(p.groups[0].mean50 - knee.mean[50]) < 1e-9);
-      assert.equal(cycles.panels.find((x) => x.name === 'gait_speed_0.8').series.find((x) => x.name === 'knee_angle_r').strides.length,
-        runs[1].heel_strikes_s.right.length - 1);
+      for (const run of summary.speed_knobs) {
+        const knee_r = cycles.panels.find((x) => x.name === `gait_speed_${run.speed_knob}`).series.find((x) => x.name === 'knee_angle_r');
+        const right = run.heel_strikes_s.right.length - 1;
+        if (right > 0) assert.equal(knee_r.strides.length, right, `knob ${run.speed_knob}`);
+        else assert.equal(knee_r, undefined, `knob ${run.speed_knob}: no right stride, no series`);
+      }
       await page.locator('.card:has(#gait-runs)').screenshot({ path: path.join(ARTIFACTS, 'dashboard-autonomous-gait.png') });
     });
   }
