@@ -274,6 +274,10 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
                    "e.g. 0.45 0.5 0.55")
       ->check(CLI::Range(0.01, 0.99))
       ->capture_default_str();
+  gait->add_option("--tune-stop-at", g->tuning.stop_at,
+                   "walk -> stand trials each tuning candidate also walks, stopping at its stop phase after each of these fractions "
+                   "of the horizon; only their falls count, e.g. 0.45")
+      ->check(CLI::Range(0.01, 0.99));
   gait->add_option("--tune-tolerances", g->tuning.integrator_tolerances,
                    "integrator tolerances every tuning walk is taken at (each one more simulation), so the controller walks by its "
                    "own stability, not one tolerance's integration error, e.g. 5e-4 2e-3 (default: --tolerance alone)")
@@ -352,9 +356,13 @@ void add_gait_command(CLI::App& app) {
       ->capture_default_str();
   gait->add_option("--control-interval", g->options.control_interval_s,
                    "the controller's interval, s: the CPG, reflexes and balance feedback are updated once per interval (also the "
-                   "integrator's largest step and the output's sample); 0.0025 with --tolerance 8e-3 walks subject01's robust controller 3x faster")
+                   "integrator's largest step and the output's sample)")
       ->check(CLI::Range(1e-4, 1e-2))
       ->capture_default_str();
+  gait->add_option("--integrator", g->options.integrator,
+                   "ros34pw2 (third-order Rosenbrock-W; the default) or rosenbrock (ROS2, second order: the walks before ros34pw2 "
+                   "became the default, with --control-interval 0.001)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, WMethod>{{"ros34pw2", WMethod::kRos34pw2}, {"rosenbrock", WMethod::kRos2}}));
   gait->add_flag("--compliant-tendons", g->options.compliant_tendons,
                  "compliant tendons (OpenSim's Thelen2003Muscle; suits a CPG fitted to CMC excitations). Default: rigid, as static "
                  "optimization assumes");

@@ -175,11 +175,11 @@ static void BM_ReproducedGaitSubject01(benchmark::State& state) {
     o.balance = {2.0, 2.0, 0.3, 0.1, 0.5, 0.0};
     o.duration_s = 1.5;
   }
-  if (state.range(0) == 3) o.control_interval_s = 0.0025, o.integrator_tolerance = 8e-3;  // the README's fast walk
+  if (state.range(0) == 3) o.control_interval_s = 0.001, o.integrator = WMethod::kRos2;  // the defaults before ROS34PW2 at 2.5 ms
   double simulated = 0;
   for (auto _ : state) simulated += reproduce_gait(m, fit.model, kin, feet, o).time_s.back();
   state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
 }
 // Args: 0 rigid tendons with residuals, 1 compliant tendons, 2 the closed loop without residuals, 3 the
-// same at a 2.5 ms controller interval and tolerance 8e-3.
+// same with ROS2 at a 1 ms controller interval (the defaults before ROS34PW2 at 2.5 ms).
 BENCHMARK(BM_ReproducedGaitSubject01)->Unit(benchmark::kSecond)->Iterations(2)->Arg(0)->Arg(1)->Arg(2)->Arg(3);

@@ -462,7 +462,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   // The stage's ground steps, pushes and tolerances reach the tuner: each candidate's cost is the mean
   // over its walks, so the start's cost changes; a push needs three numbers, a tolerance is positive.
   std::ofstream(dir + "/perturbed.json")
-      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "control_interval_s": 0.0025, "tolerance": 8e-3, "tune_entrainment": true}})";
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "tune_stop_at": [0.5], "control_interval_s": 0.001, "tolerance": 8e-3, "integrator": "rosenbrock", "tune_entrainment": true}})";
   const CliRun perturbed = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/perturbed.json -o " + dir + "/perturbed");
   ASSERT_EQ(perturbed.status, 0) << perturbed.output;
   const nlohmann::json p = nlohmann::json::parse(cpgait::text::read_file(dir + "/perturbed/w_gait.json"));
@@ -470,28 +470,37 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_EQ(p["tuning"]["pushes_N_s"], nlohmann::json::array({0, 0, -30}));
   EXPECT_EQ(p["tuning"]["tolerances"], nlohmann::json::array({1e-3, 1e-2}));
   EXPECT_EQ(p["tuning"]["step_at"], nlohmann::json::array({0.3, 0.7}));
+  EXPECT_EQ(p["tuning"]["stop_at"], nlohmann::json::array({0.5}));
   // The entrainment was searched: the tuned controller's share and phases moved off the untuned 0, 0, 0.5.
   EXPECT_EQ(p["tuning"]["entrainment"], true);
   const nlohmann::json searched = p["tuning"]["controller"]["entrainment"];
   EXPECT_NE(searched, nlohmann::json({{"share", 0.0}, {"phase_r", 0.0}, {"phase_l", 0.5}})) << searched.dump();
   EXPECT_FALSE(gait["tuning"]["entrainment"].get<bool>());
-  // The walk's tolerance and controller interval: the defaults recorded, or the options', which the CLI
-  // replays alike (the motion sampled at the interval).
+  // The walk's tolerance, controller interval and integrator: the defaults recorded, or the options',
+  // which the CLI replays alike (the motion sampled at the interval).
   EXPECT_EQ(gait["tolerance"].get<double>(), 1e-3);
-  EXPECT_EQ(gait["control_interval_s"].get<double>(), 1e-3);
+  EXPECT_EQ(gait["control_interval_s"].get<double>(), 0.0025);
+  EXPECT_EQ(gait["integrator"], "ros34pw2");
   EXPECT_EQ(p["tolerance"].get<double>(), 8e-3);
-  EXPECT_EQ(p["control_interval_s"].get<double>(), 0.0025);
+  EXPECT_EQ(p["control_interval_s"].get<double>(), 0.001);
+  EXPECT_EQ(p["integrator"], "rosenbrock");
   const CliRun replay_fast = run("gait --model " + model + " --cpg " + dir + "/perturbed/w_cpg_tuned.json --kinematics " + dir +
-                                 "/perturbed/w_ik.mot --duration 0.5 --control-interval 0.0025 --tolerance 8e-3 -o " + dir + "/fast");
+                                 "/perturbed/w_ik.mot --duration 0.5 --control-interval 0.001 --tolerance 8e-3 --integrator rosenbrock -o " + dir + "/fast");
   ASSERT_EQ(replay_fast.status, 0) << replay_fast.output;
   const cpgait::Storage staged_fast = cpgait::read_storage(dir + "/perturbed/w_gait.mot"), replayed_fast = cpgait::read_storage(dir + "/fast_gait.mot");
   ASSERT_GT(replayed_fast.num_rows(), 10);  // the walker, tuned on 8 simulations, may fall
-  EXPECT_NEAR(replayed_fast.time()(1) - replayed_fast.time()(0), 0.0025, 1e-9);
+  EXPECT_NEAR(replayed_fast.time()(1) - replayed_fast.time()(0), 0.001, 1e-9);
   ASSERT_GE(staged_fast.num_rows(), replayed_fast.num_rows());
   EXPECT_LT((staged_fast.data.topRows(replayed_fast.num_rows()) - replayed_fast.data).cwiseAbs().maxCoeff(), 1e-6);
   std::ofstream(dir + "/bad_interval.json") << R"({"gait": {"control_interval_s": 0.02}})";
   const CliRun bad_interval = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_interval.json -o " + dir + "/bad_interval");
   expect_refused(bad_interval, 2, "gait.control_interval_s");
+  std::ofstream(dir + "/bad_integrator.json") << R"({"gait": {"integrator": "euler"}})";
+  const CliRun bad_integrator = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_integrator.json -o " + dir + "/bad_integrator");
+  expect_refused(bad_integrator, 2, "gait.integrator");
+  const CliRun euler = run("gait --model " + model + " --cpg " + dir + "/perturbed/w_cpg_tuned.json --kinematics " + dir +
+                           "/perturbed/w_ik.mot --duration 0.5 --integrator euler -o " + dir + "/euler");
+  expect_refused(euler, 105, "--integrator");  // CLI11's validation error
   const CliRun slow_control = run("gait --model " + model + " --cpg " + dir + "/perturbed/w_cpg_tuned.json --kinematics " + dir +
                                   "/perturbed/w_ik.mot --duration 0.5 --control-interval 0.05 -o " + dir + "/slow_control");
   expect_refused(slow_control, 105, "--control-interval");  // CLI11's validation error

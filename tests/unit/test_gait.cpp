@@ -335,17 +335,29 @@ struct StillWalker {
 
 }  // namespace
 
-// The controller's interval: the walk is sampled at it (and the CPG, reflexes and balance updated),
-// and the still walker, which falls, moves at 2.5 ms as at 1 ms (within 2 % of its motion); an interval that is not in
-// (0, 10 ms] is refused naming it. Why coarser: subject01's tuned walk at 2.5 ms and tolerance 8e-3
-// ran 31x real time against 11x, within 0.17 deg RMS of the 1 ms walk over 10 s (measured: README).
-TEST(ReproducedGait, TheControllerIntervalSamplesTheWalkAndIsBounded) {
-  StillWalker w;
+namespace {
+// The still walker's first 0.3 s without residuals, the balance feedback on: it falls.
+ReproducedGaitOptions falling_walk() {
   ReproducedGaitOptions o;
   o.start_time_s = 0.5;
   o.duration_s = 0.3;
   o.pelvis_residuals = false;
   o.balance = {2.0, 2.0, 0.3, 0.1, 0.5, 0.0};
+  return o;
+}
+}  // namespace
+
+// The controller's interval: the walk is sampled at it (and the CPG, reflexes and balance updated),
+// and the still walker, which falls, moves at 2.5 ms as at 1 ms (within 4 % of its motion); an
+// interval that is not in (0, 10 ms] is refused naming it. Why 2.5 ms by default: the integrator
+// begins anew at each interval, and subject01's tuned walk took 1.85x fewer instructions than at
+// 1 ms (measured: README).
+TEST(ReproducedGait, TheControllerIntervalSamplesTheWalkAndIsBounded) {
+  StillWalker w;
+  ReproducedGaitOptions o = falling_walk();
+  // Both integrated at 1e-6, so that they differ by the controller's hold alone.
+  o.integrator_tolerance = 1e-6;
+  o.control_interval_s = 0.001;
   const ReproducedGaitResult fine = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
   o.control_interval_s = 0.0025;
   const ReproducedGaitResult coarse = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
@@ -359,7 +371,9 @@ TEST(ReproducedGait, TheControllerIntervalSamplesTheWalkAndIsBounded) {
   double moved = 0;
   for (Eigen::Index i = 0; i < fine.q.rows(); ++i) moved = std::max(moved, (fine.q.row(i) - fine.q.row(0)).cwiseAbs().maxCoeff());
   std::printf("[info] 2.5 ms against 1 ms over 0.3 s: largest coordinate difference %.2e, largest motion %.2e\n", worst, moved);
-  EXPECT_LT(worst, 0.02 * moved);  // measured 0.7 %
+  // Measured 2.8 % (ROS2 at 1e-3 showed 0.7 %: its integration error, 1e-2 rad here, hid the hold's).
+  EXPECT_LT(worst, 0.04 * moved);
+  o.integrator_tolerance = ReproducedGaitOptions().integrator_tolerance;
   // The CPG keeps its pace whatever the interval: without reflexes the excitations (the CPG's alone)
   // are alike at the same times, over more than a cycle.
   o.reflex_kp = o.reflex_kv = 0;
@@ -387,6 +401,30 @@ TEST(ReproducedGait, TheControllerIntervalSamplesTheWalkAndIsBounded) {
       EXPECT_EQ(e.field(), "control_interval_s");
     }
   }
+}
+
+// The default integrator, ROS34PW2, against ROS2 at the default interval and tolerance: each walk's
+// largest coordinate difference to the walk at 1e-7. ROS34PW2 is ten times nearer in fewer steps
+// (measured on this walker over 0.3 s: 3.6e-3 rad in 129 steps against ROS2's 3.8e-2 in 300; ROS2 at
+// its former 1 ms interval, 1.0e-2 in 376).
+TEST(ReproducedGait, DefaultIntegratorIsNearTheConvergedWalk) {
+  StillWalker w;
+  ReproducedGaitOptions o = falling_walk();
+  ASSERT_EQ(o.integrator, WMethod::kRos34pw2);
+  ReproducedGaitOptions converged = o;
+  converged.integrator_tolerance = 1e-7;
+  const ReproducedGaitResult exact = reproduce_gait(w.m, w.cpg, w.reference, w.feet, converged);
+  const ReproducedGaitResult ros34 = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+  o.integrator = WMethod::kRos2;
+  const ReproducedGaitResult ros2 = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+  ASSERT_EQ(ros34.q.rows(), exact.q.rows());
+  ASSERT_EQ(ros2.q.rows(), exact.q.rows());
+  const double e34 = (ros34.q - exact.q).cwiseAbs().maxCoeff(), e2 = (ros2.q - exact.q).cwiseAbs().maxCoeff();
+  std::printf("[info] against the walk at 1e-7: ROS34PW2 %.2e rad in %ld steps, ROS2 %.2e rad in %ld steps\n", e34, ros34.integrator_steps, e2,
+              ros2.integrator_steps);
+  EXPECT_LT(e34, 1e-2);
+  EXPECT_LT(e34, 0.2 * e2);
+  EXPECT_LT(ros34.integrator_steps, ros2.integrator_steps);
 }
 
 // A push at the pelvis moves the centre of mass as its impulse would: in the air (the ground far
@@ -470,7 +508,7 @@ TEST(ReproducedGait, StopTurnsTheWalkToTheStandingPose) {
   o.stand_fade_s = 0.1;
   o.fall_height_fraction = -1e9;  // without reflexes it sinks; the targets are the point here
   const ReproducedGaitResult r = reproduce_gait(w.m, w.cpg, reference, w.feet, o);
-  ASSERT_GT(r.time_s.size(), 700u);
+  ASSERT_EQ(r.time_s.size(), static_cast<std::size_t>(std::lround(o.duration_s / o.control_interval_s)) + 1);  // it did not stop early
   // The phase reaches 0.4 at 0.4 cycles after the start's heel strike (at the beginning here).
   const double dt = o.control_interval_s;
   EXPECT_NEAR(r.frozen_at_s, 0.4 * w.cpg.cycle_s, dt + 1e-9);
@@ -615,6 +653,25 @@ TEST(GaitTuning, GroundStepsAndTheRotationBoundEnterTheCost) {
   EXPECT_GT(q.tune(tight).summary.start_cost, level + q.t.fall_weight);
 }
 
+// A walk -> stand trial counts its fall alone: the still walker, which stands through 0.3 s, adds
+// nothing to the cost but its share of the mean (a stand's tracking, effort or stride would add).
+// A stop outside the horizon is refused.
+TEST(GaitTuning, StopTrialsCountTheirFallsAlone) {
+  const QuickTuning q(2);
+  const GaitTuningResult level = q.tune(q.t);
+  ASSERT_EQ(level.summary.start_walked_s, q.t.horizon_s);
+  ASSERT_GT(level.summary.start_cost, 0.0);
+  GaitTuningOptions stopping = q.t;
+  stopping.stop_at = {0.3};
+  const GaitTuningResult stopped = q.tune(stopping);
+  EXPECT_EQ(stopped.summary.start_walked_s, q.t.horizon_s);
+  EXPECT_NEAR(stopped.summary.start_cost, 0.5 * level.summary.start_cost, 1e-12);
+  for (double bad : {0.0, 1.0}) {
+    stopping.stop_at = {bad};
+    EXPECT_THROW(q.tune(stopping), std::invalid_argument) << bad;
+  }
+}
+
 // The tuned controller records the feet it walked on; a speed knob's entry is tuned on the
 // controller's feet only, and a count that is no feet is refused.
 TEST(GaitTuning, TheControllerRecordsItsFeet) {
@@ -755,6 +812,10 @@ TEST(ReproducedGait, UnmuscledJointsAreHeldAtTheTrialsMean) {
   o.duration_s = 1.0;
   o.amplitude = 0;                // the muscles at rest: the walker sags (the pelvis on its soft springs) ...
   o.fall_height_fraction = -1e9;  // ... which does not matter here
+  // The pelvis residuals' torques are held over each controller interval: at 2.5 ms they let the
+  // pelvis, and so the back, swing further (0.013 rad at worst against 0.009 at 1 ms, both
+  // converged; measured). The holding spring is the point here, at the interval it was built at.
+  o.control_interval_s = 0.001;
   const ReproducedGaitResult r = reproduce_gait(w.m, w.cpg, reference, w.feet, o);
   for (Eigen::Index i = r.q.rows() / 2; i < r.q.rows(); ++i) {
     ASSERT_NEAR(r.q(i, back), 0.2, 0.01) << "at " << r.time_s[static_cast<std::size_t>(i)] << " s";

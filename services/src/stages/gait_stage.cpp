@@ -25,10 +25,12 @@ struct GaitStageOptions {
   int foot_spheres = 2;
   std::vector<double> tune_steps_m, tune_pushes_N_s, tune_tolerances;
   std::vector<double> tune_step_at = {0.5};
+  std::vector<double> tune_stop_at;
   std::vector<double> speed_knobs;
   int schedule_evaluations = 0;
   std::vector<double> check_tolerances = {5e-4, 2e-3};
-  double tolerance = 1e-3, control_interval_s = 1e-3;
+  double tolerance = 1e-3, control_interval_s = 0.0025;
+  std::string integrator = "ros34pw2";
 
   static const OptionFields<GaitStageOptions>& fields() {
     static const OptionFields<GaitStageOptions> f =
@@ -47,8 +49,11 @@ struct GaitStageOptions {
                     NumberRange{1e-8, 0.1})
             .number("control_interval_s", &GaitStageOptions::control_interval_s, "s",
                     "the controller's interval: the CPG, reflexes and balance feedback are updated once per interval (also the "
-                    "integrator's largest step and the motion's sample); 0.0025 with tolerance 8e-3 walks subject01's robust controller 3x faster",
+                    "integrator's largest step and the motion's sample)",
                     NumberRange{1e-4, 0.01})
+            .choice("integrator", &GaitStageOptions::integrator, {"ros34pw2", "rosenbrock"},
+                    "ros34pw2 (third-order Rosenbrock-W) or rosenbrock (ROS2, second order: the walks before ros34pw2 became the "
+                    "default, with control_interval_s 0.001)")
             .boolean("phase_reference", &GaitStageOptions::phase_reference,
                      "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time")
             .integer("tune_evaluations", &GaitStageOptions::tune_evaluations, 0, 5000,
@@ -72,6 +77,10 @@ struct GaitStageOptions {
                          "tuning: where each ground step's edge reaches the pelvis, fractions of the horizon; each step is walked at "
                          "each (a controller tuned with its steps at one place is fitted to that place; empty: half the horizon)",
                          NumberRange{0.0, 0.99, true}, 8)
+            .number_list("tune_stop_at", &GaitStageOptions::tune_stop_at, "",
+                         "tuning: walk -> stand trials each candidate also walks, stopping at its stop phase after each of these "
+                         "fractions of the horizon; only their falls count (empty: none)",
+                         NumberRange{0.0, 0.99, true}, 4)
             .number_list("tune_pushes_N_s", &GaitStageOptions::tune_pushes_N_s, "N s",
                          "tuning: pushes each candidate also walks through, impulses at the pelvis over 0.1 s at half the horizon, "
                          "ground frame, three numbers each (x y z)",
@@ -175,6 +184,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.foot_spheres = o.foot_spheres;
   to.ground_steps_m = o.tune_steps_m;
   if (!o.tune_step_at.empty()) to.ground_step_at = o.tune_step_at;
+  to.stop_at = o.tune_stop_at;
   to.set_pushes(o.tune_pushes_N_s);  // the option's reader refused lists that are not triples
   to.integrator_tolerances = o.tune_tolerances;
   const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, trial.progress);
@@ -182,7 +192,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
                            {"horizon_s", to.horizon_s}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
-                           {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
+                           {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;
   for (double knob : o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{}) {
@@ -238,6 +248,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.phase_indexed_reference = o.phase_reference;
     go.integrator_tolerance = o.tolerance;
     go.control_interval_s = o.control_interval_s;
+    go.integrator = o.integrator == "rosenbrock" ? WMethod::kRos2 : WMethod::kRos34pw2;
     // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
     CpgModel driving = cpg->model;
@@ -256,6 +267,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     summary["pelvis_residuals"] = go.pelvis_residuals;
     summary["tolerance"] = go.integrator_tolerance;
     summary["control_interval_s"] = go.control_interval_s;
+    summary["integrator"] = o.integrator;
     if (!tuning.is_null()) summary["tuning"] = tuning;
     nlohmann::json radius = nlohmann::json::object();
     for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;

@@ -142,4 +142,10 @@ DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& pr
   return rosenbrock_steps(prepare, t0, t1, x, o, step_done, attempt, step_factor, s);
 }
 
+DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
+                                        double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
+  return method == WMethod::kRos34pw2 ? integrate_ros34pw2(f, prepare, solve, t0, t1, x, o, step_done)
+                                      : integrate_ros2(f, prepare, solve, t0, t1, x, o, step_done);
+}
+
 }  // namespace cpgait

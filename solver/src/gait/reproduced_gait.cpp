@@ -543,7 +543,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       for (int m = 0; m < nm; ++m)
         excitation[m] = std::clamp(excitation[m] + drive[m], model.muscles[m].min_control, model.muscles[m].max_control);
     }
-    const auto s = integrate_ros2(f, prepare, w_solve, t, t + dt, x, ro);
+    const auto s = integrate_w_method(o.integrator, f, prepare, w_solve, t, t + dt, x, ro);
     ro.initial_step_s = s.last_step_s;
     r.integrator_steps += s.accepted_steps;
     if (!s.success || !x.allFinite()) {

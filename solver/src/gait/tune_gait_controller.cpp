@@ -109,7 +109,10 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     Eigen::Vector3d push_N_s;
     double tolerance;
     double step_at = 0.5;  // the step's edge under the pelvis, a fraction of the horizon
-    bool same_ground_and_knob(const Walk& o) const { return speed == o.speed && step_m == o.step_m && push_N_s == o.push_N_s && step_at == o.step_at; }
+    double stop_at = -1;   // a walk -> stand trial: the stop, a fraction of the horizon (< 0: none)
+    bool same_ground_and_knob(const Walk& o) const {
+      return speed == o.speed && step_m == o.step_m && push_N_s == o.push_N_s && step_at == o.step_at && stop_at == o.stop_at;
+    }
   };
   std::vector<double> tolerances = t.integrator_tolerances;
   if (tolerances.empty()) tolerances.push_back(base.integrator_tolerance);
@@ -126,6 +129,10 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   for (double step : t.ground_steps_m)
     for (double at : t.ground_step_at) at_each_tolerance({1.0, step, Eigen::Vector3d::Zero(), 0.0, at});
   for (const Eigen::Vector3d& push : t.pushes_N_s) at_each_tolerance({1.0, 0.0, push, 0.0});
+  for (double at : t.stop_at) {
+    if (!(at > 0 && at < 1)) throw std::invalid_argument("tune_gait_controller: a stop must lie inside the horizon (0 < stop_at < 1)");
+    at_each_tolerance({1.0, 0.0, Eigen::Vector3d::Zero(), 0.0, 0.5, at});
+  }
   // One candidate's simulations and score; walked receives the shortest time it walked. The start's
   // errors (the inputs') propagate; a candidate's score as falling at once.
   auto score = [&](const Candidate& k, double* walked, bool rethrow) {
@@ -147,21 +154,24 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       o.integrator_tolerance = w.tolerance;
       if (w.step_m != 0) o.ground_step_m = w.step_m, o.ground_step_time_s = w.step_at * horizon_s;
       if (w.push_N_s.norm() > 0) o.push_time_s = 0.5 * horizon_s, o.push_duration_s = 0.1, o.push_force_N = w.push_N_s / 0.1;
+      if (w.stop_at >= 0) o.stop_time_s = w.stop_at * horizon_s;
       cost_here = t.fall_weight, walked_here = 0;
       try {
         const ReproducedGaitResult g = reproduce_gait(model, working, reference, contacts, o);
         walked_here = g.fell_at_s < 0 ? horizon_s : g.fell_at_s;
-        double tracking = 0, worst = 0;
-        for (int c : rotations) tracking += g.tracking_rms[c], worst = std::max(worst, g.tracking_rms[c]);
-        tracking = tracking / static_cast<double>(std::max<std::size_t>(1, rotations.size())) + worst;
-        const double effort = g.excitations.size() ? g.excitations.array().square().mean() : 0.0;
-        // No two heel strikes of the CPG's foot: as far off as a stride twice the cycle.
-        const double cycle_s = cpg.cycle_s / (cpg.speed * o.speed);
-        const double stride_error = g.stride_time_s > 0 ? std::abs(g.stride_time_s / cycle_s - 1.0) : 1.0;
-        cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s + t.tracking_weight * tracking +
-                    t.effort_weight * effort + t.stride_weight * stride_error;
-        if (t.worst_rotation_limit_deg > 0)
-          cost_here += t.fall_weight * std::max(0.0, worst * 180 / M_PI - t.worst_rotation_limit_deg) / t.worst_rotation_limit_deg;
+        cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s;
+        if (w.stop_at < 0) {  // a walk: also how it tracks the trial's cycle, its effort and its stride
+          double tracking = 0, worst = 0;
+          for (int c : rotations) tracking += g.tracking_rms[c], worst = std::max(worst, g.tracking_rms[c]);
+          tracking = tracking / static_cast<double>(std::max<std::size_t>(1, rotations.size())) + worst;
+          const double effort = g.excitations.size() ? g.excitations.array().square().mean() : 0.0;
+          // No two heel strikes of the CPG's foot: as far off as a stride twice the cycle.
+          const double cycle_s = cpg.cycle_s / (cpg.speed * o.speed);
+          const double stride_error = g.stride_time_s > 0 ? std::abs(g.stride_time_s / cycle_s - 1.0) : 1.0;
+          cost_here += t.tracking_weight * tracking + t.effort_weight * effort + t.stride_weight * stride_error;
+          if (t.worst_rotation_limit_deg > 0)
+            cost_here += t.fall_weight * std::max(0.0, worst * 180 / M_PI - t.worst_rotation_limit_deg) / t.worst_rotation_limit_deg;
+        }
       } catch (const std::exception&) {
         if (rethrow) throw;
       }

@@ -49,4 +49,10 @@ DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& pr
                                         double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
                                         const WStepDone& step_done = {});
 
+// The W-method a caller chose, and its integration.
+enum class WMethod { kRos2, kRos34pw2 };
+DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
+                                        double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
+                                        const WStepDone& step_done = {});
+
 }  // namespace cpgait

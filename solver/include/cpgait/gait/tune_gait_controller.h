@@ -4,7 +4,7 @@
 // CPG's entrainment at foot contact), each candidate a
 // few simulations of the gait (reproduce_gait, no residuals, reflex targets from the trial's cycle at
 // the CPG's phase: one per speed knob, ground step at each place and push, all at each integrator
-// tolerance), each scored by
+// tolerance; walk -> stand trials, scored by their falls alone), each scored by
 //   (horizon - time walked) / horizon * fall_weight + tracking_weight * (mean + worst rotation RMS, rad)
 //   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|
 //   (+ fall_weight * the worst rotation's excess over a bound, relative to it, when one is set)
@@ -49,6 +49,12 @@ struct GaitTuningOptions {
   // Pushes (impulses at the pelvis, N s, ground frame, over 0.1 s at half the horizon) each candidate
   // also walks through, counted as the ground steps are (default: none).
   std::vector<Eigen::Vector3d> pushes_N_s;
+  // Walk -> stand trials each candidate also walks, on level ground at the options' speed: the walk
+  // stops at its stop phase after each of these fractions of the horizon (ReproducedGaitOptions::
+  // stop_time_s). Only their falls count (time walked before falling, as the others'): a stand has no
+  // gait cycle to track or stride to time (default: none). Tuned without, a controller that walks may
+  // fall once stopped (measured: test_so_gait2392.cpp).
+  std::vector<double> stop_at;
   // Integrator tolerances (ReproducedGaitOptions::integrator_tolerance) every walk above is taken at,
   // each one more simulation, counted as the speeds' are (default: none, the gait options' own alone);
   // a walk that fell at one is not taken again at the next, its fall counted there too. A controller
