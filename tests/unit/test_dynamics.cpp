@@ -11,6 +11,7 @@
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rnea.h"
+#include "cpgait/dynamics/tree_cholesky.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/signal/lowpass.h"
 #include "test_support.h"
@@ -345,6 +346,89 @@ TEST(Crba, MatchesUnitAccelerationsThroughRnea) {
     const Eigen::VectorXd qd = random_vector(n, rng, 2.0);
     EXPECT_NEAR(0.5 * qd.dot(ws.M * qd), kinetic_energy(m, q, qd), 1e-10 * (1 + kinetic_energy(m, q, qd)));
   }
+}
+
+// The tree's LTL factor solves as a dense Cholesky does on every reference model's mass matrix (and
+// on M plus a muscle's and a foot contact's coupling, which stay on one branch); a matrix coupling
+// two branches, a non-definite one and an order with a parent after its child are refused sparsely.
+TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
+  std::vector<std::filesystem::path> files{"walker"};
+  const std::string root = refdata::shared_path("opensim");
+  if (std::filesystem::exists(root)) {
+    for (const auto& e : std::filesystem::recursive_directory_iterator(root))
+      if (e.path().extension() == ".osim") files.push_back(e.path());
+  } else {
+    std::cout << "reference data absent (" << root << "): the walker alone" << std::endl;
+  }
+  std::mt19937 rng(5);
+  int models = 0;
+  for (const auto& e : files) {
+    const Model m = e == "walker" ? walker() : read_osim(e.string()).model;
+    const int n = m.num_coordinates();
+    if (n < 2) continue;
+    ++models;
+    ForwardDynamicsWorkspace ws(m);
+    Eigen::VectorXd q(n);
+    for (int c = 0; c < n; ++c) q[c] = m.coordinates[c].default_value + std::uniform_real_distribution<double>(-0.3, 0.3)(rng);
+    forward_kinematics(m, q.data(), ws.kinematics);
+    motion_subspace(m, q.data(), ws.kinematics, ws.S);
+    crba(m, ws.kinematics, ws.S, ws.M);
+    const std::vector<int> parent = coordinate_parents(m);
+    if (ws.M.llt().info() != Eigen::Success) {  // massless chains (BothLegs): refused alike
+      TreeCholesky tree(parent);
+      tree.compute(ws.M);
+      EXPECT_FALSE(tree.success()) << e;
+      continue;
+    }
+    Eigen::MatrixXd A = ws.M;
+    // A chain's coupling: the deepest coordinate with its ancestors (as a muscle or a contact adds).
+    int deep = n - 1;
+    for (int j = deep; j >= 0; j = parent[j])
+      for (int i = deep; i >= 0; i = parent[i]) A(i, j) += 0.5;
+    for (const Eigen::MatrixXd* matrix : {&ws.M, &A}) {
+      TreeCholesky tree(parent);
+      tree.compute(*matrix);
+      ASSERT_TRUE(tree.success()) << e;
+      EXPECT_TRUE(tree.sparse()) << e;
+      const Eigen::MatrixXd B = Eigen::MatrixXd::Random(n, 3);
+      const Eigen::MatrixXd x = tree.solve(B), x_dense = matrix->llt().solve(B);
+      EXPECT_LT((x - x_dense).norm(), 1e-9 * x_dense.norm()) << e;
+      Eigen::VectorXd b = B.col(0);
+      tree.solve_in_place(b);
+      EXPECT_LT((b - x_dense.col(0)).norm(), 1e-9 * x_dense.norm()) << e;
+    }
+    // Two coordinates on different branches coupled: dense, and still the solution.
+    int other = -1;
+    for (int i = 0; i < n && other < 0; ++i) {
+      bool related = false;
+      for (int j = deep; j >= 0; j = parent[j]) related = related || j == i;
+      for (int j = i; j >= 0; j = parent[j]) related = related || j == deep;
+      if (!related) other = i;
+    }
+    if (other >= 0) {
+      Eigen::VectorXd v = Eigen::VectorXd::Zero(n);  // a positive coupling of the two: A stays definite
+      v[other] = std::sqrt(A(other, other));
+      v[deep] = std::sqrt(A(deep, deep));
+      A += 0.1 * v * v.transpose();
+      TreeCholesky tree(parent);
+      tree.compute(A);
+      EXPECT_TRUE(tree.success());
+      EXPECT_FALSE(tree.sparse()) << e;
+      const Eigen::VectorXd b = Eigen::VectorXd::Random(n);
+      EXPECT_LT((tree.solve(b) - A.llt().solve(b)).norm(), 1e-9 * A.llt().solve(b).norm()) << e;
+    }
+  }
+  EXPECT_GE(models, 1);
+  // Not positive definite; a parent after its child.
+  TreeCholesky chain({-1, 0});
+  chain.compute((Eigen::Matrix2d() << 1, 2, 2, 1).finished());
+  EXPECT_FALSE(chain.success());
+  TreeCholesky reversed({1, -1});
+  const Eigen::Matrix2d spd = (Eigen::Matrix2d() << 2, 1, 1, 2).finished();
+  reversed.compute(spd);
+  EXPECT_TRUE(reversed.success());
+  EXPECT_FALSE(reversed.sparse());
+  EXPECT_LT((reversed.solve(Eigen::Vector2d(1, 0)) - spd.llt().solve(Eigen::Vector2d(1, 0))).norm(), 1e-12);
 }
 
 TEST(ForwardDynamics, InverseOfInverseDynamics) {

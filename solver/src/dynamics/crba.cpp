@@ -26,10 +26,17 @@ Matrix6d spatial_inertia_in_ground(const Body& b, const PoseT<double>& X) {
 }
 
 void crba(const Model& model, const KinematicsWorkspace<double>& ws, const MotionSubspace& S, Eigen::MatrixXd& M) {
+  std::vector<Matrix6d> composite;
+  crba(model, ws, S, M, composite);
+}
+
+void crba(const Model& model, const KinematicsWorkspace<double>& ws, const MotionSubspace& S, Eigen::MatrixXd& M,
+          std::vector<Matrix6d>& composite) {
   const int nq = model.num_coordinates();
   M.setZero(nq, nq);
   // Composite inertias, leaves first: each joint's child accumulates its subtree.
-  std::vector<Matrix6d> composite(model.bodies.size(), Matrix6d::Zero());
+  composite.resize(model.bodies.size());
+  composite[0].setZero();
   for (std::size_t b = 1; b < model.bodies.size(); ++b) composite[b] = spatial_inertia_in_ground(model.bodies[b], ws.body_in_ground[b]);
   for (int k = static_cast<int>(model.joints.size()) - 1; k >= 0; --k) {
     const Joint& j = model.joints[k];

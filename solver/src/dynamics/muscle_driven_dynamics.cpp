@@ -51,7 +51,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   auto& fd = ws.fd;
   rnea_kinematics(model, q, u, fd.dynamics);  // pose, motion subspace and its rate in one pass
   kinematics_values(fd.dynamics, fd.kinematics, fd.S);
-  crba(model, fd.kinematics, fd.S, fd.M);
+  crba(model, fd.kinematics, fd.S, fd.M, fd.composite);
 
   ws.time_s = t;
   // External loads: measured, then contact.
@@ -155,6 +155,24 @@ void add_moment_arm_product(const MuscleDrivenJacobian& jac, const Eigen::Vector
       for (int j : jac.crossed[m]) out(i, j) += scale * w[m] * jac.moment_arm(m, i) * jac.moment_arm(m, j);
   }
 }
+
+// out += scale R^T w and out = R x, over each muscle's crossed coordinates (R is ~1/6 full on gait2392).
+void add_moment_arm_transpose_product(const MuscleDrivenJacobian& jac, const Eigen::VectorXd& w, double scale, Eigen::VectorXd& out) {
+  for (int m = 0; m < static_cast<int>(jac.crossed.size()); ++m) {
+    if (w[m] == 0) continue;
+    const double sw = scale * w[m];
+    for (int c : jac.crossed[m]) out[c] += sw * jac.moment_arm(m, c);
+  }
+}
+template <typename Vector>
+void moment_arm_product(const MuscleDrivenJacobian& jac, const Vector& x, Eigen::VectorXd& out) {
+  out.resize(static_cast<Eigen::Index>(jac.crossed.size()));
+  for (int m = 0; m < static_cast<int>(jac.crossed.size()); ++m) {
+    double sum = 0;
+    for (int c : jac.crossed[m]) sum += jac.moment_arm(m, c) * x[c];
+    out[m] = sum;
+  }
+}
 }  // namespace
 
 void muscle_driven_prepare(const MuscleDrivenSystem& sys, double t, const Eigen::VectorXd& x,
@@ -169,6 +187,7 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   const Model& model = *sys.model;
   const int nm = sys.num_muscles(), nq = sys.num_coordinates();
   jac.M = ws.fd.M;
+  if (jac.llt.size() != nq) jac.llt = TreeCholesky(coordinate_parents(model));
   jac.moment_arm = ws.geometry.moment_arm_m;
   jac.da_da.resize(nm);
   jac.dl_dl.setZero(nm);
@@ -239,10 +258,18 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const Eigen::Matrix3d C_psd = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
       const double dp = 1e-7;
       const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v, ws.time_s).y() - f0.y()) / dp);
-      J.setZero();
-      for (int q : ws.sphere_coordinates[i]) J.col(q) = point_velocity_column(ws.fd.S, q, p);
-      jac.damping.noalias() += J.transpose() * C_psd * J;
-      jac.stiffness.noalias() += k_yy * J.row(1).transpose() * J.row(1);
+      // Over the sphere's ancestor coordinates only (its Jacobian's nonzero columns): a dense
+      // J^T C J was 3 % of a reproduced gait's time.
+      const std::vector<int>& cs = ws.sphere_coordinates[i];
+      const int nc = static_cast<int>(cs.size());
+      for (int a = 0; a < nc; ++a) J.col(a) = point_velocity_column(ws.fd.S, cs[a], p);
+      const auto Jc = J.leftCols(nc);
+      const Eigen::Matrix<double, Eigen::Dynamic, 3> JtC = Jc.transpose() * C_psd;
+      for (int b = 0; b < nc; ++b)
+        for (int a = 0; a < nc; ++a) {
+          jac.damping(cs[a], cs[b]) += JtC.row(a).dot(Jc.col(b));
+          jac.stiffness(cs[a], cs[b]) += k_yy * Jc(1, a) * Jc(1, b);
+        }
     }
   }
 }
@@ -288,19 +315,19 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
   }
   Eigen::VectorXd& b = jac.b;
   b.noalias() = jac.M * rhs.segment(nq, nq);
-  if (nm > 0) b.noalias() += gh * jac.moment_arm.transpose() * jac.g;
+  if (nm > 0) add_moment_arm_transpose_product(jac, jac.g, gh, b);
   b.noalias() -= gh * jac.stiffness * rhs.head(nq);
   Eigen::VectorXd& stretch = jac.stretch;  // R dq = -dL per muscle
   if (tendon_stiffness) {
-    stretch.noalias() = jac.moment_arm * rhs.head(nq);  // the stretch the position part alone makes
+    moment_arm_product(jac, rhs.head(nq), stretch);  // the stretch the position part alone makes
     stretch.array() *= jac.tendon_stiffness.array();
-    b.noalias() -= gh * jac.moment_arm.transpose() * stretch;
+    add_moment_arm_transpose_product(jac, stretch, -gh, b);
   }
   k.segment(nq, nq) = jac.llt.solve(b);
   k.head(nq) = rhs.head(nq) + gh * k.segment(nq, nq);
   if (tendon_stiffness) {
     // The fibres' response to the joints' motion over the step, where the coupling was kept.
-    stretch.noalias() = jac.moment_arm * k.head(nq);
+    moment_arm_product(jac, k.head(nq), stretch);
     for (int m = 0; m < nm; ++m)
       if (jac.tendon_stiffness[m] > 0)
         k[sys.fiber_length_index(m)] -= gh * jac.dl_dL[m] * stretch[m] / (1.0 - gh * jac.dl_dl[m]);

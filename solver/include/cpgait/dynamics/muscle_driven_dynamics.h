@@ -21,6 +21,7 @@
 #include "cpgait/dynamics/applied_loads.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/dynamics/forward_dynamics.h"
+#include "cpgait/dynamics/tree_cholesky.h"
 #include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait {
@@ -101,7 +102,7 @@ struct MuscleDrivenJacobian {
   Eigen::MatrixXd damping, stiffness;
   Eigen::MatrixXd muscle_damping;  // rigid tendons: R^T diag(dF/dV) R, formed once per prepare
   Eigen::MatrixXd W;  // M + gamma h (R^T diag(dF/dV) R + D) + (gamma h)^2 (K + R^T diag(e) R), factored in llt
-  Eigen::LLT<Eigen::MatrixXd> llt;
+  TreeCholesky llt;
   double factored_gamma_h = -1;   // the gamma h that llt holds (a step's stages share it); < 0: none
   Eigen::VectorXd g, b, stretch;  // w_solve's scratch
 };
