@@ -333,7 +333,7 @@ TEST(Crba, MatchesUnitAccelerationsThroughRnea) {
     const Eigen::VectorXd q = random_vector(n, rng, 0.6), zero = Eigen::VectorXd::Zero(n);
     forward_kinematics(m, q.data(), ws.kinematics);
     motion_subspace(m, q.data(), ws.kinematics, ws.S);
-    crba(m, ws.kinematics, ws.S, ws.M);
+    crba(m, ws.kinematics, ws.S, ws.M, ws.composite);
     const Eigen::VectorXd g = rnea_tau(m, q, zero, zero);
     for (int i = 0; i < n; ++i) {
       Eigen::VectorXd e = zero;
@@ -372,7 +372,7 @@ TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
     for (int c = 0; c < n; ++c) q[c] = m.coordinates[c].default_value + std::uniform_real_distribution<double>(-0.3, 0.3)(rng);
     forward_kinematics(m, q.data(), ws.kinematics);
     motion_subspace(m, q.data(), ws.kinematics, ws.S);
-    crba(m, ws.kinematics, ws.S, ws.M);
+    crba(m, ws.kinematics, ws.S, ws.M, ws.composite);
     const std::vector<int> parent = coordinate_parents(m);
     if (ws.M.llt().info() != Eigen::Success) {  // massless chains (BothLegs): refused alike
       TreeCholesky tree(parent);

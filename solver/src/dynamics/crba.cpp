@@ -25,11 +25,6 @@ Matrix6d spatial_inertia_in_ground(const Body& b, const PoseT<double>& X) {
   return I;
 }
 
-void crba(const Model& model, const KinematicsWorkspace<double>& ws, const MotionSubspace& S, Eigen::MatrixXd& M) {
-  std::vector<Matrix6d> composite;
-  crba(model, ws, S, M, composite);
-}
-
 void crba(const Model& model, const KinematicsWorkspace<double>& ws, const MotionSubspace& S, Eigen::MatrixXd& M,
           std::vector<Matrix6d>& composite) {
   const int nq = model.num_coordinates();

@@ -20,6 +20,5 @@ Matrix6d spatial_inertia_in_ground(const Body& body, const PoseT<double>& pose);
 // scratch for the subtrees' inertias (a workspace's, so that evaluations do not allocate).
 void crba(const Model& model, const KinematicsWorkspace<double>& ws, const MotionSubspace& S, Eigen::MatrixXd& M,
           std::vector<Matrix6d>& composite);
-void crba(const Model& model, const KinematicsWorkspace<double>& ws, const MotionSubspace& S, Eigen::MatrixXd& M);
 
 }  // namespace cpgait
