@@ -5,6 +5,7 @@
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/dynamics/articulated_body.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/dynamics/forward_dynamics.h"
 #include <Eigen/Eigenvalues>
@@ -103,9 +104,9 @@ TEST(Rnea, MatchesLagrangesEquations) {
   }
 }
 
-// dS/dt from motion_subspace_rate (each column turned by its parent's velocity, plus its own joint's
-// functions on a Jet) is the derivative that motion_subspace on a Jet carrying qd gives down the whole
-// tree; and the two-part RNEA is RNEA.
+// S and dS/dt from motion_subspace_and_rate (each column turned by its parent's velocity and by its
+// joint's own rotations, plus its functions' second derivatives) are what motion_subspace on a Jet
+// carrying qd gives down the whole tree; and the two-part RNEA is RNEA.
 void expect_rate_is_the_jet_pass(const Model& m, std::mt19937& rng, const std::string& what) {
   const int n = m.num_coordinates();
   using Jet = ceres::Jet<double, 1>;
@@ -351,7 +352,8 @@ TEST(Crba, MatchesUnitAccelerationsThroughRnea) {
 // The tree's LTL factor solves as a dense Cholesky does on every reference model's mass matrix (and
 // on M plus a muscle's and a foot contact's coupling, which stay on one branch); a matrix coupling
 // two branches, a non-definite one and an order with a parent after its child are refused sparsely.
-TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
+// "walker" (the synthetic model) and every .osim under ../shared, or the walker alone without them.
+static std::vector<std::filesystem::path> walker_and_reference_models() {
   std::vector<std::filesystem::path> files{"walker"};
   const std::string root = refdata::shared_path("opensim");
   if (std::filesystem::exists(root)) {
@@ -360,6 +362,48 @@ TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
   } else {
     std::cout << "reference data absent (" << root << "): the walker alone" << std::endl;
   }
+  return files;
+}
+
+// The articulated-body algorithm gives CRBA's accelerations (M^-1 (tau - bias), external forces and
+// all) on every model under ../shared, and refuses where M is singular (BothLegs' massless chains).
+TEST(ArticulatedBody, AccelerationsAreCrbasOnEveryReferenceModel) {
+  const std::vector<std::filesystem::path> files = walker_and_reference_models();
+  std::mt19937 rng(7);
+  int models = 0, refused = 0;
+  for (const auto& e : files) {
+    const Model m = e == "walker" ? walker() : read_osim(e.string()).model;
+    const int n = m.num_coordinates();
+    if (n == 0) continue;
+    ++models;
+    for (int trial = 0; trial < 3; ++trial) {
+      Eigen::VectorXd q(n);
+      for (int c = 0; c < n; ++c) q[c] = m.coordinates[c].default_value + std::uniform_real_distribution<double>(-0.3, 0.3)(rng);
+      const Eigen::VectorXd qd = random_vector(n, rng, 2.0), tau = random_vector(n, rng, 50.0);
+      std::vector<Vector6d> external(m.bodies.size(), Vector6d::Zero());
+      for (std::size_t b = 1; b < m.bodies.size(); b += 2) external[b] = random_vector(6, rng, 100.0);
+      ForwardDynamicsWorkspace fd(m);
+      Eigen::VectorXd qdd_crba(n), qdd(n);
+      forward_dynamics(m, q.data(), qd.data(), tau.data(), external, fd, qdd_crba.data());
+      ArticulatedBodyWorkspace aw(m);
+      const bool solved = articulated_body_accelerations(m, qd.data(), tau.data(), external, fd.dynamics, aw, qdd.data());
+      if (!fd.llt.success() || !qdd_crba.allFinite()) {
+        EXPECT_FALSE(solved) << e;
+        ++refused;
+        break;
+      }
+      ASSERT_TRUE(solved) << e;
+      EXPECT_LT((qdd - qdd_crba).norm(), 1e-8 * (1 + qdd_crba.norm())) << e;
+    }
+  }
+  EXPECT_GE(models, files.size() > 1 ? 30 : 1);
+  if (files.size() > 1) {
+    EXPECT_GE(refused, 1) << "BothLegs' massless chains";
+  }
+}
+
+TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
+  const std::vector<std::filesystem::path> files = walker_and_reference_models();
   std::mt19937 rng(5);
   int models = 0;
   for (const auto& e : files) {

@@ -15,13 +15,16 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
 Matrix6d spatial_inertia_in_ground(const Body& b, const PoseT<double>& X) {
   const Eigen::Vector3d c = X.rotation * b.com_m + X.translation_m;
   const Eigen::Matrix3d Ic = X.rotation * b.inertia_kg_m2 * X.rotation.transpose();
-  const Eigen::Matrix3d C = skew(c);
+  const double m = b.mass_kg;
+  const Eigen::Vector3d mc = m * c;
   Matrix6d I;
-  // Momentum of velocity (w, v at the origin): h = Ic w + c x m (v + w x c), p = m (v + w x c).
-  I.topLeftCorner<3, 3>() = Ic - b.mass_kg * C * C;
-  I.topRightCorner<3, 3>() = b.mass_kg * C;
-  I.bottomLeftCorner<3, 3>() = -b.mass_kg * C;
-  I.bottomRightCorner<3, 3>() = b.mass_kg * Eigen::Matrix3d::Identity();
+  // Momentum of velocity (w, v at the origin): h = Ic w + c x m (v + w x c), p = m (v + w x c); the
+  // top-left block Ic - m [c]x [c]x = Ic + m (|c|^2 1 - c c^T).
+  I.topLeftCorner<3, 3>() = Ic - mc * c.transpose();
+  I.topLeftCorner<3, 3>().diagonal().array() += mc.dot(c);
+  I.topRightCorner<3, 3>() = skew(mc);
+  I.bottomLeftCorner<3, 3>() = -I.topRightCorner<3, 3>();
+  I.bottomRightCorner<3, 3>() = m * Eigen::Matrix3d::Identity();
   return I;
 }
 

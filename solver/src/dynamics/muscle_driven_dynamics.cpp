@@ -1,5 +1,6 @@
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 
+#include "cpgait/dynamics/articulated_body.h"
 #include "cpgait/dynamics/coordinate_couplers.h"
 #include "cpgait/dynamics/passive_generalized_forces.h"
 #include "cpgait/muscles/activation_dynamics.h"
@@ -11,7 +12,7 @@
 namespace cpgait {
 
 MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
-    : fd(*sys.model), geometry(*sys.model), actuator_columns(sys.num_coordinates(), sys.num_actuators()),
+    : fd(*sys.model), articulated(*sys.model), geometry(*sys.model), actuator_columns(sys.num_coordinates(), sys.num_actuators()),
       external(sys.model->bodies.size(), Vector6d::Zero()), tau(sys.num_coordinates()),
       paths(sys.num_muscles()), muscle_wrench(sys.model->bodies.size(), Vector6d::Zero()),
       muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
@@ -51,7 +52,11 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   auto& fd = ws.fd;
   rnea_kinematics(model, q, u, fd.dynamics);  // pose, motion subspace and its rate in one pass
   kinematics_values(fd.dynamics, fd.kinematics, fd.S);
-  crba(model, fd.kinematics, fd.S, fd.M, fd.composite);
+  // An integrator's stages on a tree without constraints need the accelerations only: the
+  // articulated-body algorithm gives them without M (crba, its factor and the bias were a sixth of
+  // an evaluation).
+  const bool articulated = !moment_arms && !coupled;
+  if (!articulated) crba(model, fd.kinematics, fd.S, fd.M, fd.composite);
 
   ws.time_s = t;
   // External loads: measured, then contact.
@@ -77,7 +82,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       ws.external[s.body] += spatial_force(f, point);
     }
   }
-  rnea_from_kinematics(model, u, fd.zero.data(), ws.external, fd.dynamics, fd.bias.data());  // C + G - J^T f_ext
+  if (!articulated) rnea_from_kinematics(model, u, fd.zero.data(), ws.external, fd.dynamics, fd.bias.data());  // C + G - J^T f_ext
 
   // Muscles (rigid tendon) and actuators.
   ws.tau.setZero();
@@ -131,6 +136,11 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   if (sys.generalized_forces) ws.tau += *sys.generalized_forces;
   add_passive_generalized_forces(model, q, u, fd.kinematics, fd.S, ws.tau.data());
   xdot.head(nq) = Eigen::Map<const Eigen::VectorXd>(u, nq);
+  if (articulated) {
+    if (articulated_body_accelerations(model, u, ws.tau.data(), ws.external, fd.dynamics, ws.articulated, xdot.data() + nq)) return;
+    crba(model, fd.kinematics, fd.S, fd.M, fd.composite);  // a joint without motion: M's factor decides
+    rnea_from_kinematics(model, u, fd.zero.data(), ws.external, fd.dynamics, fd.bias.data());
+  }
   fd.llt.compute(fd.M);  // callers (CMC, the correction controller, the gait) reuse the factor
   if (!coupled) {
     xdot.segment(nq, nq) = fd.llt.solve(ws.tau - fd.bias);

@@ -6,8 +6,7 @@ namespace cpgait {
 
 void rnea_kinematics(const Model& model, const double* q, const double* qd, DynamicsWorkspace& ws) {
   forward_kinematics(model, q, ws.kinematics);
-  motion_subspace(model, q, ws.kinematics, ws.S);
-  motion_subspace_rate(model, q, qd, ws.kinematics, ws.S, ws.q_jet, ws.velocity, ws.S_rate);
+  motion_subspace_and_rate(model, q, qd, ws.kinematics, ws.S, ws.velocity, ws.S_rate);
 }
 
 void kinematics_values(const DynamicsWorkspace& ws, KinematicsWorkspace<double>& kinematics, MotionSubspace& S) {
@@ -23,7 +22,7 @@ void rnea(const Model& model, const double* q, const double* qd, const double* q
 
 void rnea_from_kinematics(const Model& model, const double* qd, const double* qdd, const std::vector<Vector6d>& external,
                           DynamicsWorkspace& ws, double* tau) {
-  // The body velocities are rnea_kinematics' (motion_subspace_rate propagates them).
+  // The body velocities are rnea_kinematics' (motion_subspace_and_rate propagates them).
   ws.acceleration[0].setZero();
   for (const Joint& j : model.joints) {
     const Vector6d& V = ws.velocity[j.child_body];

@@ -12,56 +12,62 @@ std::vector<int> ancestor_coordinates(const Model& model, int body) {
   return out;
 }
 
-namespace {
-
-// Whether the joint's columns are fixed in its parent frame: one axis moved by a coordinate, through
-// a linear function (a pin or a slider), and no other coordinate among the joint's axes. Then only
-// the parent's motion turns them, and no Jet is needed.
-bool moves_with_parent_only(const Joint& j) {
-  int driven = 0;
-  for (const TransformAxis& ax : j.axes)
-    if (ax.coordinate >= 0) {
-      if (ax.function.kind() != Function::Kind::kLinear && !ax.function.is_constant()) return false;
-      ++driven;
-    }
-  return driven <= 1 && j.coordinates.size() <= 1;
-}
-
-}  // namespace
-
-void motion_subspace_rate(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
-                          const MotionSubspace& S, std::vector<ceres::Jet<double, 1>>& q_jet,
-                          std::vector<Eigen::Matrix<double, 6, 1>>& body_velocity, Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate) {
-  using Jet = ceres::Jet<double, 1>;
-  using M3 = Eigen::Matrix<Jet, 3, 3>;
-  using V3 = Eigen::Matrix<Jet, 3, 1>;
-  const int nq = model.num_coordinates();
-  for (int c = 0; c < nq; ++c) {
-    q_jet[c].a = q[c];
-    q_jet[c].v[0] = qd[c];
-  }
+void motion_subspace_and_rate(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
+                              MotionSubspace& S, std::vector<Eigen::Matrix<double, 6, 1>>& body_velocity,
+                              Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate) {
+  using V3 = Eigen::Vector3d;
+  S.columns.setZero();
   S_rate.setZero();
-  // Spatial velocity of each body (angular; linear of the point at the ground origin), root first.
   auto& V = body_velocity;
   V[0].setZero();
   for (const Joint& j : model.joints) {
-    const Eigen::Vector3d w_P = V[j.parent_body].head<3>(), v_P = V[j.parent_body].tail<3>();
-    if (moves_with_parent_only(j)) {
-      for (int c : j.coordinates) {
-        const Eigen::Vector3d w = S.columns.col(c).head<3>(), v = S.columns.col(c).tail<3>();
-        S_rate.col(c).head<3>() += w_P.cross(w);
-        S_rate.col(c).tail<3>() += w_P.cross(v) + v_P.cross(w);
+    const V3 w_P = V[j.parent_body].head<3>(), v_P = V[j.parent_body].tail<3>();
+    const auto& P = ws.body_in_ground[j.parent_body];
+    const Eigen::Matrix3d R_GF = P.rotation * j.parent_offset.rotation;
+    const V3 p_GF = P.rotation * j.parent_offset.translation_m + P.translation_m;
+    // Column c as a spatial vector (w, v) and its rate: the parent's motion turns it (the motion
+    // cross product V_P x S_c), and the joint's own coordinates move it within the parent (dw, dv).
+    auto add = [&](int c, const V3& w, const V3& v, const V3& dw, const V3& dv) {
+      S.columns.col(c).head<3>() += w;
+      S.columns.col(c).tail<3>() += v;
+      S_rate.col(c).head<3>() += w_P.cross(w) + dw;
+      S_rate.col(c).tail<3>() += w_P.cross(v) + v_P.cross(w) + dv;
+    };
+    // The child frame's origin M (ground) and its rate within the parent, from the translations.
+    V3 translation_F = V3::Zero(), translation_rate_F = V3::Zero();
+    for (int s = 3; s < 6; ++s) {
+      const TransformAxis& ax = j.axes[s];
+      translation_F += ax.axis * axis_value(ax, q);
+      if (ax.coordinate >= 0) translation_rate_F += ax.axis * (ax.function.derivative(q[ax.coordinate]) * qd[ax.coordinate]);
+    }
+    const V3 origin_M_G = R_GF * translation_F + p_GF, origin_rate_G = R_GF * translation_rate_F;
+    // Rotation s turns about its axis in the frame left by rotations 1..s-1, which turns within the
+    // parent at the angular velocity those rotations give (own_w).
+    Eigen::Matrix3d R_partial = Eigen::Matrix3d::Identity();
+    V3 own_w = V3::Zero();
+    int last_turn = -1;  // the last rotation that turns the frame: none after it needs R_partial
+    for (int s = 0; s < 3; ++s)
+      if (j.axes[s].coordinate >= 0 || j.axes[s].function.value(0.0) != 0.0) last_turn = s;
+    for (int s = 0; s < 3; ++s) {
+      const TransformAxis& ax = j.axes[s];
+      if (ax.coordinate >= 0) {
+        const int c = ax.coordinate;
+        const V3 axis_G = R_GF * (R_partial * ax.axis);
+        const V3 w = axis_G * ax.function.derivative(q[c]);
+        const V3 dw = own_w.cross(w) + axis_G * (ax.function.second_derivative(q[c]) * qd[c]);
+        // Rotating about an axis through M's origin: the ground-origin point moves with -w x o_M.
+        add(c, w, -w.cross(origin_M_G), dw, -dw.cross(origin_M_G) - w.cross(origin_rate_G));
+        own_w += w * qd[c];
       }
-    } else {
-      const auto& P = ws.body_in_ground[j.parent_body];
-      // The parent frame's pose held (no derivative): only the joint's own functions vary here.
-      const M3 R_GF = (P.rotation * j.parent_offset.rotation).cast<Jet>();
-      const V3 p_GF = (P.rotation * j.parent_offset.translation_m + P.translation_m).cast<Jet>();
-      joint_motion_subspace<Jet>(j, R_GF, p_GF, q_jet.data(), [&](int c, const V3& w, const V3& v) {
-        const Eigen::Vector3d w_a(w[0].a, w[1].a, w[2].a), v_a(v[0].a, v[1].a, v[2].a);
-        S_rate.col(c).head<3>() += w_P.cross(w_a) + Eigen::Vector3d(w[0].v[0], w[1].v[0], w[2].v[0]);
-        S_rate.col(c).tail<3>() += w_P.cross(v_a) + v_P.cross(w_a) + Eigen::Vector3d(v[0].v[0], v[1].v[0], v[2].v[0]);
-      });
+      if (s < last_turn && (ax.coordinate >= 0 || ax.function.value(0.0) != 0.0))
+        R_partial = (R_partial * axis_rotation(ax.axis, axis_value(ax, q))).eval();
+    }
+    for (int s = 3; s < 6; ++s) {
+      const TransformAxis& ax = j.axes[s];
+      if (ax.coordinate < 0) continue;
+      const int c = ax.coordinate;
+      const V3 axis_G = R_GF * ax.axis;
+      add(c, V3::Zero(), axis_G * ax.function.derivative(q[c]), V3::Zero(), axis_G * (ax.function.second_derivative(q[c]) * qd[c]));
     }
     V[j.child_body] = V[j.parent_body];
     for (int c : j.coordinates) V[j.child_body] += S.columns.col(c) * qd[c];

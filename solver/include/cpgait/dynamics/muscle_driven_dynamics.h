@@ -19,6 +19,7 @@
 
 #include "cpgait/activation/actuators.h"
 #include "cpgait/dynamics/applied_loads.h"
+#include "cpgait/dynamics/articulated_body.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/dynamics/forward_dynamics.h"
 #include "cpgait/dynamics/tree_cholesky.h"
@@ -46,6 +47,7 @@ struct MuscleDrivenSystem {
 // Per-thread scratch space; after each evaluation it also holds that evaluation's forces.
 struct MuscleDrivenWorkspace {
   ForwardDynamicsWorkspace fd;
+  ArticulatedBodyWorkspace articulated;
   MusclePathGeometry geometry;
   Eigen::MatrixXd actuator_columns;  // nq x actuators: generalized force per unit control
   std::vector<Vector6d> external;
@@ -73,7 +75,10 @@ struct MuscleDrivenWorkspace {
 // What an evaluation leaves in ws.geometry. kLengthsAndSpeeds: no moment-arm matrix (moment_arm_m
 // stays as it was); the muscles' tensions reach the joints as their paths' body forces
 // (muscle_path.h: the same generalized forces to rounding), for an integrator's stages that nobody
-// reads the moment arms of. The Jacobian needs them: muscle_driven_prepare forms them.
+// reads the moment arms of. The Jacobian needs them: muscle_driven_prepare forms them. On a model
+// without coupler constraints or locked coordinates kLengthsAndSpeeds also leaves ws.fd's M, factor
+// and bias as the last kMomentArms evaluation left them (the accelerations come from the
+// articulated-body algorithm).
 enum class MuscleGeometry { kMomentArms, kLengthsAndSpeeds };
 
 // xdot = f(t, x); excitation per muscle (clamped to its control range), control per actuator.

@@ -2,9 +2,7 @@
 // Recursive Newton-Euler inverse dynamics: tau = M(q) qdd + C(q, qd) + G(q) - J^T f_ext.
 // Spatial quantities are in ground at the ground origin (Featherstone's fixed-frame form), so the
 // knee's spline-coupled translations need no special case: each coordinate's motion subspace S and
-// its rate dS/dt come from the coordinate functions (motion_subspace, motion_subspace_rate).
-#include <ceres/jet.h>
-
+// its rate dS/dt come from the coordinate functions (motion_subspace_and_rate).
 #include <Eigen/Core>
 #include <vector>
 
@@ -23,13 +21,12 @@ inline Vector6d spatial_force(const Eigen::Vector3d& force_N, const Eigen::Vecto
 }
 
 struct DynamicsWorkspace {
-  std::vector<ceres::Jet<double, 1>> q_jet;  // motion_subspace_rate's scratch
   KinematicsWorkspace<double> kinematics;
   MotionSubspace S;
   Eigen::Matrix<double, 6, Eigen::Dynamic> S_rate;  // dS/dt, column per coordinate
   std::vector<Vector6d> velocity, acceleration, force;  // per body
   explicit DynamicsWorkspace(const Model& m)
-      : q_jet(m.num_coordinates()), kinematics(m), S(m), S_rate(6, m.num_coordinates()), velocity(m.bodies.size()),
+      : kinematics(m), S(m), S_rate(6, m.num_coordinates()), velocity(m.bodies.size()),
         acceleration(m.bodies.size()), force(m.bodies.size()) {}
 };
 

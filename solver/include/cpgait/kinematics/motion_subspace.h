@@ -3,8 +3,8 @@
 // point at the ground origin) that a unit rate of that coordinate gives its joint's child, with the
 // joint's coupled functions (knee translations, ...) differentiated through. A point p fixed on a
 // descendant body moves with dp/dq_c = omega_c x p + v_c. Evaluated on a Jet whose dual part is
-// qdot, it also gives dS/dt exactly, which inverse dynamics needs (motion_subspace_rate gets it
-// faster). The IK Jacobian and the dynamics share it.
+// qdot, it also gives dS/dt exactly, which inverse dynamics needs (motion_subspace_and_rate gets
+// both faster). The IK Jacobian and the dynamics share it.
 #include <ceres/jet.h>
 
 #include <Eigen/Core>
@@ -28,7 +28,7 @@ inline Eigen::Vector3d point_velocity_column(const MotionSubspace& S, int c, con
 
 // One joint's share of the motion subspace: add(c, w, v) receives, for each coordinate c its axes
 // move, the angular (w) and ground-origin linear (v) velocity per unit rate of c, given the pose of
-// its parent frame F in ground (R_GF, p_GF). motion_subspace and motion_subspace_rate share it.
+// its parent frame F in ground (R_GF, p_GF).
 // Inlined: as a call it cost motion_subspace on doubles (every IK iteration, every dynamics
 // evaluation) 7 % more instructions (callgrind).
 template <typename T, typename Add>
@@ -75,15 +75,14 @@ void motion_subspace(const Model& model, const T* q, const KinematicsWorkspace<T
   }
 }
 
-// dS/dt at (q, qd), from the pose and S at q (forward_kinematics, motion_subspace on doubles): each
-// column moves with its joint's parent, whose spatial velocity V_P turns it (V_P x S_c, the motion
-// cross product), and with the joint's own functions of q, differentiated on a Jet through that
-// joint alone. Equal to motion_subspace on a Jet carrying qd (to rounding), without carrying the Jet
-// down the whole tree. q_jet: scratch of num_coordinates(); body_velocity (one per body) receives each
-// body's spatial velocity on the way.
-void motion_subspace_rate(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
-                          const MotionSubspace& S, std::vector<ceres::Jet<double, 1>>& q_jet,
-                          std::vector<Eigen::Matrix<double, 6, 1>>& body_velocity, Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate);
+// S and dS/dt at (q, qd) in one pass in doubles, from the pose at q (forward_kinematics): each column
+// moves with its joint's parent, whose spatial velocity V_P turns it (V_P x S_c, the motion cross
+// product), and with the joint's own coordinates (the rotations before its axis turning it, its
+// functions' second derivatives). Equal to motion_subspace on a Jet carrying qd (to rounding), at a
+// fraction of its cost. body_velocity (one per body) receives each body's spatial velocity on the way.
+void motion_subspace_and_rate(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
+                              MotionSubspace& S, std::vector<Eigen::Matrix<double, 6, 1>>& body_velocity,
+                              Eigen::Matrix<double, 6, Eigen::Dynamic>& S_rate);
 
 // Coordinates that move `body`, root first.
 std::vector<int> ancestor_coordinates(const Model& model, int body);
