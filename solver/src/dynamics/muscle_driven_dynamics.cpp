@@ -8,6 +8,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <limits>
 
 namespace cpgait {
 
@@ -93,7 +94,11 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       for (int m = 0; m < nm; ++m) {
         current_path(model, model.muscles[m], q, fd.kinematics, ws.paths[m]);
         ws.geometry.length_m[m] = current_path_length(ws.paths[m]);
-        ws.geometry.lengthening_speed_m_s[m] = current_path_lengthening_speed(ws.paths[m], q, u, fd.kinematics, fd.dynamics.velocity);
+        // A compliant tendon's force needs the path's length alone (its fibre velocity is a state's rate).
+        ws.geometry.lengthening_speed_m_s[m] =
+            sys.compliant_tendons && !ws.rigid_tendon[m]
+                ? std::numeric_limits<double>::quiet_NaN()
+                : current_path_lengthening_speed(ws.paths[m], q, u, fd.kinematics, fd.dynamics.velocity);
       }
     }
     for (int m = 0; m < nm; ++m) {

@@ -73,7 +73,7 @@ struct MuscleDrivenWorkspace {
 };
 
 // What an evaluation leaves in ws.geometry. kLengthsAndSpeeds: no moment-arm matrix (moment_arm_m
-// stays as it was); the muscles' tensions reach the joints as their paths' body forces
+// stays as it was), and no lengthening speed (NaN) for a muscle whose compliant tendon does not use it; the muscles' tensions reach the joints as their paths' body forces
 // (muscle_path.h: the same generalized forces to rounding), for an integrator's stages that nobody
 // reads the moment arms of. The Jacobian needs them: muscle_driven_prepare forms them. On a model
 // without coupler constraints or locked coordinates kLengthsAndSpeeds also leaves ws.fd's M, factor
