@@ -102,7 +102,7 @@ CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm
     const double v_start = i == 1 ? at.fiber_velocity_m_s : 2 * at.fiber_velocity_m_s - v_prev;
     v_prev = at.fiber_velocity_m_s;
     double l = std::max(base + ch * v_start, lm_min);
-    at = compliant_tendon_fiber(m, a, L, l, at.fiber_velocity_m_s);
+    at = compliant_tendon_fiber(m, a, L, l, v_start);  // an iterating model's start: the velocity l was taken from
     double g = l - base - ch * at.fiber_velocity_m_s;
     if (stiffness < 0) {
       const double dl = 1e-7 * m.optimal_fiber_length_m;
@@ -114,7 +114,9 @@ CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm
     for (int k = 0; k < 40 && std::abs(g) >= tol; ++k) {
       const double l_next = std::max(l - g / (1 + ch * stiffness), lm_min);
       if (l_next == l) break;  // at the floor
-      at = compliant_tendon_fiber(m, a, L, l_next, at.fiber_velocity_m_s);
+      // The velocity guess moves with the slope the step was taken on (Millard's Newton then starts
+      // nearer its root).
+      at = compliant_tendon_fiber(m, a, L, l_next, at.fiber_velocity_m_s - stiffness * (l_next - l));
       const double g_next = l_next - base - ch * at.fiber_velocity_m_s;
       stiffness = std::max(0.0, ((g_next - g) / (l_next - l) - 1) / ch);
       l = l_next;
