@@ -54,8 +54,8 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
   rnea_kinematics(model, q, u, fd.dynamics);  // pose, motion subspace and its rate in one pass
   kinematics_values(fd.dynamics, fd.kinematics, fd.S);
   // An integrator's stages on a tree without constraints need the accelerations only: the
-  // articulated-body algorithm gives them without M (crba, its factor and the bias were a sixth of
-  // an evaluation).
+  // articulated-body algorithm gives them without M (crba, its factor, the bias and the solve were a
+  // fifth of an evaluation on gait2392: callgrind).
   const bool articulated = !moment_arms && !coupled;
   if (!articulated) crba(model, fd.kinematics, fd.S, fd.M, fd.composite);
 
