@@ -217,6 +217,38 @@ TEST(Millard2012, DampedFibreVelocityIsTheSameFromAnyGuess) {
   EXPECT_EQ(compared, 4 * 5 * 41);
 }
 
+// One implicit step (CMC's force prediction): the length and velocity returned satisfy the step's
+// equation and the fibre's force balance there, as compliant_tendon_fiber finds that velocity for
+// that length from scratch; without damping it declines (the caller's own solve then).
+TEST(Millard2012, ImplicitFibreStepSolvesTheStepAndTheForceBalance) {
+  const Muscle m = millard_muscle(0.1);
+  const double vmax = 0.1 * 10;
+  int solved = 0;
+  for (double a : {0.02, 0.3, 1.0})
+    for (double stretch : {1.0, 1.02, 1.04})
+      for (double step_s : {5e-4, 1.7e-3})
+        for (double v_start : {-0.3, 0.0, 0.2}) {
+          const double L = 0.1 * std::cos(0.3) + 0.25 * stretch;
+          const double lm0 = muscles::compliant_equilibrium_fiber_length(m, a, L, 0.0);
+          const double base = lm0 * 1.01;  // the last length, off the equilibrium
+          double l = base + step_s * v_start * vmax, v = v_start * vmax;
+          const auto fibre = millard2012::implicit_fiber_step(m, a, L, base, step_s, l, v);
+          ASSERT_TRUE(fibre.has_value()) << a << " " << stretch << " " << step_s << " " << v_start;
+          EXPECT_NEAR(l, base + step_s * v, 1e-12 * 0.1);
+          const CompliantTendonFiber there = muscles::compliant_tendon_fiber(m, a, L, l);
+          EXPECT_NEAR(v, there.fiber_velocity_m_s, 1e-8 * vmax) << a << " " << stretch << " " << step_s << " " << v_start;
+          EXPECT_NEAR(fibre->fiber_velocity_m_s, v, 1e-15);
+          EXPECT_NEAR(fibre->force_N, there.force_N, 1e-6);
+          EXPECT_NEAR(fibre->cos_pennation, there.cos_pennation, 1e-9);
+          ++solved;
+        }
+  EXPECT_EQ(solved, 3 * 3 * 2 * 3);
+  const Muscle undamped = millard_muscle(0.0);
+  double l = 0.1, v = 0.0;
+  EXPECT_FALSE(millard2012::implicit_fiber_step(undamped, 0.5, 0.1 * std::cos(0.3) + 0.25, 0.1, 1e-3, l, v).has_value());
+  EXPECT_EQ(l, 0.1);
+}
+
 TEST(Millard2012, RigidTendonForces) {
   const Muscle m = millard_muscle();
   const double L = 0.1 * std::cos(0.3) + 0.25;

@@ -1,5 +1,7 @@
 #include "cpgait/muscles/millard2012.h"
 
+#include <optional>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -301,6 +303,61 @@ CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, 
                                   : c.force_velocity_inverse.value((fse / cos_pen - fpe) / (a * fal));
   if (lm <= lmin && vN <= 0) vN = 0.0;
   return {m.max_isometric_force_N * fse, vN * m.optimal_fiber_length_m * m.max_contraction_velocity, cos_pen};
+}
+
+std::optional<CompliantTendonFiber> implicit_fiber_step(const Muscle& m, double activation, double L, double base_m,
+                                                       double step_s, double& lm, double& v_m_s) {
+  const Curves& c = *m.millard;
+  if (!c.use_fiber_damping) return std::nullopt;
+  const FixedWidthPennation pen(m, c);
+  const double lmin = shortest_fiber(m, c, pen);
+  const double lopt = m.optimal_fiber_length_m, K = lopt * m.max_contraction_velocity, Lts = m.tendon_slack_length_m;
+  const double a = std::clamp(activation, c.parameters.minimum_activation, 1.0), beta = c.parameters.fiber_damping;
+  const double chK = step_s * K;
+  // On the step's line l = base + step v the force balance R(v) rises with the velocity (damping and
+  // the tendon's stiffness): Newton in v within the bracket its signs have set, bisecting where a step
+  // would leave it (as damped_norm_fiber_velocity, whose start this is).
+  double v = v_m_s / K;  // normalised, as the curves take it
+  double lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity();
+  for (int it = 0; it < 60; ++it) {
+    const double l = base_m + chK * v;
+    // Near the floor the fibre's velocity is held (compliant_tendon_fiber's corner): left to the caller.
+    if (!(l > 1.01 * lmin) || !std::isfinite(v)) return std::nullopt;
+    double cos_pen = 1, dcos_dl = 0;
+    if (pen.pennated) {
+      const double sn = pen.height / l;
+      if (!(sn < pen.max_sin)) return std::nullopt;
+      cos_pen = std::sqrt(1.0 - sn * sn);
+      dcos_dl = sn * sn / (l * cos_pen);
+    }
+    double fal, dfal, fpe, dfpe, fse, dfse, fv, dfv;
+    c.active_force_length.value_and_derivative(l / lopt, fal, dfal);
+    c.fiber_force_length.value_and_derivative(l / lopt, fpe, dfpe);
+    c.tendon_force_length.value_and_derivative((L - l * cos_pen) / Lts, fse, dfse);
+    c.force_velocity.value_and_derivative(v, fv, dfv);
+    const double fibre = a * fal * fv + fpe + beta * v;
+    const double R = fibre * cos_pen - fse;  // force balance along the tendon, normalised
+    const double R_l = (a * dfal * fv + dfpe) / lopt * cos_pen + fibre * dcos_dl + dfse / (cos_pen * Lts);  // d(l cos)/dl = 1/cos
+    const double dR_dv = (a * fal * dfv + beta) * cos_pen + chK * R_l;
+    (R > 0 ? hi : lo) = v;
+    const double dv = dR_dv > 0 ? -R / dR_dv : std::numeric_limits<double>::quiet_NaN();
+    // Within 1e-7 of the root (force and length, normalised) Newton's next iterate is within ~1e-14
+    // (the error squares on these C2 curves): it is returned, its tendon force by the same linear step.
+    if (std::abs(R) <= 1e-7 && std::abs(chK * dv) <= 1e-7 * lopt) {
+      const double dl = chK * dv;
+      lm = l + dl;
+      v_m_s = (v + dv) * K;
+      return CompliantTendonFiber{m.max_isometric_force_N * (fse - dfse * dl / (cos_pen * Lts)), v_m_s, cos_pen};
+    }
+    double next = v + dv;
+    if (!(next > lo && next < hi)) {
+      if (!std::isfinite(lo) || !std::isfinite(hi)) return std::nullopt;  // leaving a side it has seen, unbracketed
+      next = 0.5 * (lo + hi);
+    }
+    if (next == v) return std::nullopt;
+    v = next;
+  }
+  return std::nullopt;
 }
 
 double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double L, double V) {

@@ -102,6 +102,15 @@ CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm
     const double v_start = i == 1 ? at.fiber_velocity_m_s : 2 * at.fiber_velocity_m_s - v_prev;
     v_prev = at.fiber_velocity_m_s;
     double l = std::max(base + ch * v_start, lm_min);
+    double v = v_start;
+    if (m.millard) {  // length and velocity by one Newton (the secant below nests Millard's velocity solve)
+      if (const auto fibre = millard2012::implicit_fiber_step(m, a, L, base, ch, l, v)) {
+        at = *fibre;
+        lm_prev = lm;
+        lm = l;
+        continue;
+      }
+    }
     at = compliant_tendon_fiber(m, a, L, l, v_start);  // an iterating model's start: the velocity l was taken from
     double g = l - base - ch * at.fiber_velocity_m_s;
     if (stiffness < 0) {
