@@ -1,10 +1,9 @@
 #include "cpgait/muscles/millard2012.h"
 
-#include <optional>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "cpgait/muscles/fiber_equilibrium.h"

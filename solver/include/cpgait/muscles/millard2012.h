@@ -101,17 +101,17 @@ double rigid_tendon_fiber_length(const Muscle& m, double path_length_m);
 CompliantTendonFiber compliant_tendon_fiber(const Muscle& m, double activation, double path_length_m, double fiber_length_m,
                                             double velocity_guess_m_s = std::numeric_limits<double>::quiet_NaN());
 
-// The fibre length where tendon and fibre forces balance with the fibre moving at the path's speed
-// along it (bisection: the residual falls as the fibre lengthens).
-// One implicit step of the damped fibre: the length lm = base_m + step_s v and velocity v (m/s) at which
-// the fibre carries the tendon's force at path length L, by Newton in both at once (compliant_tendon_fiber
-// solves the velocity for a given length; a step solved around it nests one Newton in another). lm
-// and v_m_s in: the start; out: the root, with the fibre there. Empty (lm, v_m_s unchanged) without
-// fibre damping, near the fibre's shortest length or where Newton does not converge: the caller's own
-// solve then.
+// One implicit step of the damped fibre: the velocity v (m/s) and length lm = base_m + step_s v at
+// which the fibre carries the tendon's force at path length L, by Newton in v with the length on the
+// step's line (compliant_tendon_fiber solves the velocity for a given length; a step solved around it
+// nests one Newton in another). v_m_s in: the start; out: the root. lm out: the root's length. The
+// fibre there, or empty (lm, v_m_s unchanged) without fibre damping, near the fibre's shortest length
+// or unbracketed: the caller's own solve then.
 std::optional<CompliantTendonFiber> implicit_fiber_step(const Muscle& m, double activation, double path_length_m, double base_m,
                                                        double step_s, double& lm, double& v_m_s);
 
+// The fibre length where tendon and fibre forces balance with the fibre moving at the path's speed
+// along it (bisection: the residual falls as the fibre lengthens).
 double compliant_equilibrium_fiber_length(const Muscle& m, double activation, double path_length_m, double path_speed_m_s);
 
 }  // namespace cpgait::millard2012
