@@ -1,9 +1,12 @@
 #include "cpgait/capture/text_lines.h"
 
+#include <algorithm>
+#include <array>
 #include <cctype>
-
 #include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <fstream>
 
 #include "cpgait/capture/input_error.h"
@@ -124,6 +127,104 @@ bool parse_int(std::string_view cell, long long& out) {
   const char* end = cell.data() + cell.size();
   auto [ptr, ec] = std::from_chars(cell.data(), end, out);
   return ec == std::errc() && ptr == end;
+}
+
+namespace {
+
+// 10^k, k = 0..22: exact in double (5^22 < 2^53).
+constexpr std::array<double, 23> powers_of_ten() {
+  std::array<double, 23> p{};
+  double v = 1;
+  for (double& e : p) {
+    e = v;
+    v *= 10;
+  }
+  return p;
+}
+constexpr std::array<double, 23> kPow10 = powers_of_ten();
+
+// a * 10^k with one rounding (|k| <= 22).
+double times_power_of_ten(double a, int k) { return k >= 0 ? a * kPow10[k] : a / kPow10[-k]; }
+
+char* general_by_to_chars(double x, int digits, char* out) {
+  return std::to_chars(out, out + 32, x, std::chars_format::general, std::clamp(digits, 1, 17)).ptr;
+}
+
+}  // namespace
+
+char* format_general(double x, int digits, char* out) {
+  // The digits: m = |x| 10^k rounded to an integer. The product has one rounding, within a unit of its
+  // last place, so the integer is the correctly rounded one unless m lies within two units of a half.
+  // Those (54 of 136,000 values in a CMC run's tables), precisions over 15 and magnitudes outside
+  // [1e-7, 1e15) go to std::to_chars.
+  const double a = std::abs(x);
+  if (x == 0 && digits >= 1 && digits <= 17) {
+    if (std::signbit(x)) *out++ = '-';
+    *out++ = '0';
+    return out;
+  }
+  if (!(digits >= 1 && digits <= 15 && a >= 1e-7 && a < 1e15)) return general_by_to_chars(x, digits, out);
+  // The decimal exponent of a's leading digit, from its binary one: floor(e2 log10 2) as Ryu takes
+  // it (78913 / 2^18), then one step up where that fell short.
+  std::uint64_t bits;
+  std::memcpy(&bits, &a, sizeof bits);
+  const int e2 = static_cast<int>(bits >> 52) - 1023;  // a = 1.f 2^e2 (normal here)
+  int e10 = (e2 * 78913) >> 18;
+  const double low = kPow10[digits - 1], high = kPow10[digits];
+  double m = times_power_of_ten(a, digits - 1 - e10);
+  if (m >= high) m = times_power_of_ten(a, digits - 1 - ++e10);
+  std::uint64_t n = static_cast<std::uint64_t>(m);  // m >= 0: truncation is floor
+  const double frac = m - static_cast<double>(n);
+  if (m < low || std::abs(frac - 0.5) <= m * 4.5e-16) return general_by_to_chars(x, digits, out);
+  n += frac > 0.5 ? 1 : 0;
+  if (n >= static_cast<std::uint64_t>(high)) {  // rounded up to the next power of ten
+    n /= 10;
+    ++e10;
+  }
+  static constexpr char kPairs[] =
+      "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+      "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+      "8081828384858687888990919293949596979899";
+  // Two digits at a time, in 32-bit arithmetic: n < 10^15 splits into three parts below 10^6.
+  char d[18];
+  std::uint32_t parts[3] = {static_cast<std::uint32_t>(n / 1000000000000ULL), static_cast<std::uint32_t>(n / 1000000 % 1000000),
+                            static_cast<std::uint32_t>(n % 1000000)};
+  for (int p = (18 - digits) / 6; p < 3; ++p) {  // the parts holding n's digits
+    std::uint32_t v = parts[p];
+    for (int k = 4; k >= 0; k -= 2, v /= 100) std::memcpy(d + 6 * p + k, kPairs + 2 * (v % 100), 2);
+  }
+  const char* const digit = d + 18 - digits;  // n's digits are the last `digits` of these 18
+  int used = digits;  // without trailing zeros, as %g drops them
+  while (used > 1 && digit[used - 1] == '0') --used;
+  if (x < 0) *out++ = '-';
+  if (e10 >= -4 && e10 < digits) {  // fixed
+    if (e10 < 0) {
+      std::memcpy(out, "0.0000", static_cast<std::size_t>(1 - e10));
+      out += 1 - e10;
+      std::memcpy(out, digit, static_cast<std::size_t>(used));
+      return out + used;
+    }
+    std::memcpy(out, digit, static_cast<std::size_t>(e10 + 1));
+    out += e10 + 1;
+    if (used > e10 + 1) {
+      *out++ = '.';
+      std::memcpy(out, digit + e10 + 1, static_cast<std::size_t>(used - e10 - 1));
+      out += used - e10 - 1;
+    }
+    return out;
+  }
+  *out++ = digit[0];  // scientific: d.ddde+XX, at least two exponent digits
+  if (used > 1) {
+    *out++ = '.';
+    std::memcpy(out, digit + 1, static_cast<std::size_t>(used - 1));
+    out += used - 1;
+  }
+  *out++ = 'e';
+  *out++ = e10 < 0 ? '-' : '+';
+  const int ae = std::abs(e10);
+  if (ae >= 100) *out++ = static_cast<char>('0' + ae / 100);
+  std::memcpy(out, kPairs + 2 * (ae % 100), 2);
+  return out + 2;
 }
 
 }  // namespace cpgait::text

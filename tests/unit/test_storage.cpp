@@ -1,7 +1,14 @@
 #include <gtest/gtest.h>
 
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/storage.h"
+#include "cpgait/capture/text_lines.h"
 #include "test_support.h"
 
 using namespace cpgait;
@@ -43,6 +50,42 @@ TEST(Storage, RoundTripKeepsValuesLabelsAndFlags) {
   EXPECT_EQ(back.name, s.name);
   EXPECT_EQ(back.extra_header, s.extra_header);
   EXPECT_EQ((back.data - s.data).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// The tables' writer formats as printf's %.*g (the files OpenSim and earlier cpgait runs wrote):
+// every value in every range, byte for byte, at the precisions it is used with and at the ends.
+TEST(Storage, FormatGeneralWritesWhatPrintfWrites) {
+  std::mt19937_64 rng(7);
+  std::vector<double> values = {0.0, -0.0, 1.0, -1.0, 0.5, 2.5, 0.125, 1e-15, 1e15, 9.99999999999951, 99999999999.95, 0.000123456789012,
+                                0.0001, 0.00001, 123456789012.0, 1234567890123.0, 5e-324, 1.7976931348623157e308,
+                                std::nan(""), -std::nan(""), INFINITY, -INFINITY};
+  std::uniform_real_distribution<double> unit(1.0, 10.0);
+  std::uniform_int_distribution<int> decade(-18, 18), sign(0, 1), digits_kept(1, 17);
+  for (int i = 0; i < 40000; ++i) {  // every decade, printed values read back (few digits), and raw bit patterns
+    const double v = unit(rng) * std::pow(10.0, decade(rng)) * (sign(rng) ? -1 : 1);
+    values.push_back(v);
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.*g", digits_kept(rng), v);
+    values.push_back(std::strtod(buf, nullptr));
+    std::uint64_t bits = rng();
+    double raw;
+    std::memcpy(&raw, &bits, sizeof raw);
+    values.push_back(raw);
+  }
+  for (int k = 0; k < 2000; ++k) values.push_back((k - 1000) / 8.0), values.push_back(k * 0.005);  // binary ties, round decimals
+  int mismatches = 0;
+  for (int digits : {1, 6, 10, 12, 15, 17})
+    for (double v : values) {
+      char fast[40], expected[40];
+      const std::string got(fast, text::format_general(v, digits, fast));
+      std::snprintf(expected, sizeof expected, "%.*g", digits, v);
+      char via[40];
+      const std::string chars(via, std::to_chars(via, via + sizeof via, v, std::chars_format::general, digits).ptr);
+      if (got != chars && ++mismatches <= 10) ADD_FAILURE() << v << " at " << digits << " digits: " << got << " != " << chars;
+      if (!std::isnan(v) && got != expected && ++mismatches <= 10)
+        ADD_FAILURE() << v << " at " << digits << " digits: " << got << " != printf's " << expected;
+    }
+  EXPECT_EQ(mismatches, 0);
 }
 
 TEST(Storage, ReadsOldSimmHeader) {

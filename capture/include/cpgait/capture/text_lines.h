@@ -1,6 +1,7 @@
 #pragma once
 // Line-oriented reading shared by the TRC and MOT/STO readers: CRLF and LF line ends, a size cap so a
-// hostile upload cannot exhaust memory, and strict number parsing that reports what it saw.
+// hostile upload cannot exhaust memory, and strict number parsing that reports what it saw; and the
+// writers' number formatting.
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -34,5 +35,10 @@ std::string lower_extension(std::string_view name);
 // Parses a whole cell as a double ("nan" accepted); false if anything else is in the cell.
 bool parse_double(std::string_view cell, double& out);
 bool parse_int(std::string_view cell, long long& out);
+
+// Writes x as printf's %.*g does with `digits` significant digits (1-17; C locale) into out, which
+// holds at least 32 chars; returns the end. The same characters as std::to_chars' general format at
+// that precision, in under two fifths of its instructions for a table's values (12 digits).
+char* format_general(double x, int digits, char* out);
 
 }  // namespace cpgait::text
