@@ -22,9 +22,10 @@ double horner(const std::array<double, 6>& c, double u) {
   return ((((c[5] * u + c[4]) * u + c[3]) * u + c[2]) * u + c[1]) * u + c[0];
 }
 
-double horner_du(const std::array<double, 6>& c, double u) {
-  return (((5 * c[5] * u + 4 * c[4]) * u + 3 * c[3]) * u + 2 * c[2]) * u + c[1];
-}
+// The derivative's power-basis coefficients.
+std::array<double, 5> derivative_coefficients(const std::array<double, 6>& c) { return {c[1], 2 * c[2], 3 * c[3], 4 * c[4], 5 * c[5]}; }
+
+double horner(const std::array<double, 5>& c, double u) { return (((c[4] * u + c[3]) * u + c[2]) * u + c[1]) * u + c[0]; }
 
 }  // namespace
 
@@ -58,8 +59,12 @@ SmoothSegmentedFunction::SmoothSegmentedFunction(std::vector<QuinticBezier> segm
     : segments_(std::move(segments)), x0_(x0), x1_(x1), y0_(y0), y1_(y1), dydx0_(dydx0), dydx1_(dydx1) {
   for (const auto& seg : segments_) {
     const double width = seg.x[5] - seg.x[0];
-    polynomials_.push_back({power_basis(seg.x), power_basis(seg.y), seg.x[0], seg.x[5], width, width > 0 ? kTable / width : 0.0});
-    const std::array<double, 6>& px = polynomials_.back().x;
+    const std::array<double, 6> px = power_basis(seg.x), py = power_basis(seg.y);
+    const std::array<double, 5> dpx = derivative_coefficients(px);
+    polynomials_.push_back({px, py, dpx, derivative_coefficients(py), seg.x[0], seg.x[5], width, width > 0 ? kTable / width : 0.0});
+    struct Node {
+      double u, du_dx;
+    };
     std::array<Node, kTable + 1> t{};
     double u = 0;
     for (int k = 0; k <= kTable; ++k) {
@@ -71,16 +76,23 @@ SmoothSegmentedFunction::SmoothSegmentedFunction(std::vector<QuinticBezier> segm
         const double f = horner(px, u) - x;
         if (f == 0) break;
         (f > 0 ? hi : lo) = u;
-        const double df = horner_du(px, u);
+        const double df = horner(dpx, u);
         double next = df > 0 ? u - f / df : 0.5 * (lo + hi);
         if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
         if (next == u) break;
         u = next;
       }
-      const double dx = horner_du(px, u);
+      const double dx = horner(dpx, u);
       t[k] = {u, dx > 0 ? 1.0 / dx : 0.0};
     }
-    u_table_.push_back(t);
+    // The cubic Hermite between nodes k and k + 1 (node spacing h) in powers of t.
+    std::array<std::array<double, 4>, kTable> cubic{};
+    const double h = width / kTable;
+    for (int k = 0; k < kTable; ++k) {
+      const double u0 = t[k].u, u1 = t[k + 1].u, m0 = h * t[k].du_dx, m1 = h * t[k + 1].du_dx;
+      cubic[k] = {u0, m0, -3 * u0 - 2 * m0 + 3 * u1 - m1, 2 * u0 + m0 - 2 * u1 + m1};
+    }
+    u_table_.push_back(cubic);
   }
 }
 
@@ -102,16 +114,14 @@ inline void SmoothSegmentedFunction::locate(double x, int& segment, double& u) c
   }
   const double s = std::clamp((x - p.x_begin) * p.nodes_per_x, 0.0, double(kTable));
   const int k = std::min(static_cast<int>(s), kTable - 1);
-  const Node& a = u_table_[segment][k];
-  const Node& b = u_table_[segment][k + 1];
-  // Cubic Hermite between the two nodes, in t in [0, 1] over a node spacing of h.
-  const double t = s - k, h = p.width / kTable, t2 = t * t, t3 = t2 * t;
-  u = (2 * t3 - 3 * t2 + 1) * a.u + (t3 - 2 * t2 + t) * h * a.du_dx + (-2 * t3 + 3 * t2) * b.u + (t3 - t2) * h * b.du_dx;
+  const std::array<double, 4>& c = u_table_[segment][k];
+  const double t = s - k;
+  u = ((c[3] * t + c[2]) * t + c[1]) * t + c[0];
   // From the interpolated start (|x(u) - x| ~1e-9) one Newton step lands within rounding of the root:
   // the error squares.
   const double f0 = horner(p.x, u) - x;
   if (std::abs(f0) <= 1e-7 * p.width) {
-    u = std::clamp(u - f0 / horner_du(p.x, u), 0.0, 1.0);
+    u = std::clamp(u - f0 / horner(p.dx, u), 0.0, 1.0);
     return;
   }
   refine(x, p, u);
@@ -125,7 +135,7 @@ void SmoothSegmentedFunction::refine(double x, const Polynomials& p, double& u) 
     const double f = horner(p.x, u) - x;
     if (std::abs(f) <= tol) return;
     (f > 0 ? hi : lo) = u;
-    const double df = horner_du(p.x, u);
+    const double df = horner(p.dx, u);
     double next = df != 0 ? u - f / df : 0.5 * (lo + hi);
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
     if (next == u || hi - lo <= std::numeric_limits<double>::epsilon()) return;
@@ -153,7 +163,7 @@ void SmoothSegmentedFunction::value_and_derivative(double x, double& y, double& 
   locate(x, i, u);
   const Polynomials& p = polynomials_[i];
   y = horner(p.y, u);
-  dydx = horner_du(p.y, u) / horner_du(p.x, u);
+  dydx = horner(p.dy, u) / horner(p.dx, u);
 }
 
 double SmoothSegmentedFunction::derivative(double x) const {
@@ -162,7 +172,7 @@ double SmoothSegmentedFunction::derivative(double x) const {
   int i;
   double u;
   locate(x, i, u);
-  return horner_du(polynomials_[i].y, u) / horner_du(polynomials_[i].x, u);
+  return horner(polynomials_[i].dy, u) / horner(polynomials_[i].dx, u);
 }
 
 }  // namespace cpgait

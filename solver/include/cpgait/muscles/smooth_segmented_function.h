@@ -37,11 +37,12 @@ class SmoothSegmentedFunction {
   // Index of the segment holding x and its Bezier parameter u.
   void locate(double x, int& segment, double& u) const;
   std::vector<QuinticBezier> segments_;
-  // Each segment's x(u) and y(u) in the power basis (Horner: a fifth of the Bernstein form's
+  // Each segment's x(u) and y(u) (and their derivatives) in the power basis (Horner: a fifth of the Bernstein form's
   // multiplications; a CMC evaluates them millions of times), its x range's start and width, and
   // kTable / width.
   struct Polynomials {
     std::array<double, 6> x, y;
+    std::array<double, 5> dx, dy;  // dx/du and dy/du
     double x_begin, x_end, width, nodes_per_x;
   };
   std::vector<Polynomials> polynomials_;
@@ -50,12 +51,10 @@ class SmoothSegmentedFunction {
   // Per segment, u and du/dx at evenly spaced x: their cubic Hermite interpolant starts Newton within
   // 1e-7 of the segment's width on Millard's curves, and one step finishes (OpenSim starts from a
   // spline of u(x) too). At 32 nodes two thirds of a CMC's force-velocity lookups, near isometric,
-  // started further out and iterated (measured).
+  // started further out and iterated (measured). Kept per interval in the power basis of its
+  // position t in [0, 1] (Horner: a third of the Hermite basis' operations).
   static constexpr int kTable = 256;
-  struct Node {
-    double u, du_dx;
-  };
-  std::vector<std::array<Node, kTable + 1>> u_table_;
+  std::vector<std::array<std::array<double, 4>, kTable>> u_table_;
   double x0_ = 0, x1_ = 0, y0_ = 0, y1_ = 0, dydx0_ = 0, dydx1_ = 0;
 };
 
