@@ -111,24 +111,29 @@ Function Function::scaled(double factor) const {
 }
 
 void Function::note_spacing() {
-  const std::size_t n = x_.size();
-  const double h = (x_.back() - x_.front()) / static_cast<double>(n - 1);
-  for (std::size_t i = 0; i < n; ++i)
-    if (!(std::abs(x_[i] - (x_.front() + static_cast<double>(i) * h)) <= 0.25 * h)) return;
-  inverse_spacing_ = 1.0 / h;
+  const int n = static_cast<int>(x_.size());
+  if (n < 2 || !(x_.back() > x_.front())) return;
+  const int buckets = 2 * (n - 1);
+  buckets_per_x_ = buckets / (x_.back() - x_.front());
+  bucket_interval_.resize(static_cast<std::size_t>(buckets));
+  for (int b = 0, i = 0; b < buckets; ++b) {
+    const double left = x_.front() + b / buckets_per_x_;
+    while (i < n - 2 && x_[i + 1] <= left) ++i;
+    bucket_interval_[static_cast<std::size_t>(b)] = i;
+  }
 }
 
 int Function::interval(double x) const {
-  // x_[i] <= x < x_[i+1]; the last knot belongs to the last interval.
+  // x_[i] <= x < x_[i+1]; the last knot belongs to the last interval. The bucket's interval is a
+  // start: rounding in the bucket's index may land it a knot off either way, and a bucket may hold
+  // several knots.
   const int last = static_cast<int>(x_.size()) - 2;
-  if (inverse_spacing_ > 0 && x >= x_.front() && x <= x_.back()) {
-    // Evenly spaced: the guess is within a knot of the answer.
-    int i = std::clamp(static_cast<int>((x - x_.front()) * inverse_spacing_), 0, last);
-    for (int k = 0; k < 3; ++k) {
-      if (i > 0 && x_[i] > x) --i;
-      else if (i < last && x_[i + 1] <= x) ++i;
-      else return i;
-    }
+  if (buckets_per_x_ > 0 && x >= x_.front() && x <= x_.back()) {
+    const int b = std::clamp(static_cast<int>((x - x_.front()) * buckets_per_x_), 0, static_cast<int>(bucket_interval_.size()) - 1);
+    int i = bucket_interval_[static_cast<std::size_t>(b)];
+    while (i > 0 && x_[i] > x) --i;
+    while (i < last && x_[i + 1] <= x) ++i;
+    return i;
   }
   auto it = std::upper_bound(x_.begin(), x_.end(), x);
   int i = static_cast<int>(it - x_.begin()) - 1;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
+#include <vector>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/capture/text_lines.h"
@@ -157,18 +158,18 @@ std::string format_storage(const Storage& table, int digits) {
   out += "\n";
   // What printf's %.*g writes, without its locale and format parsing (a tenth of CMC's run time went
   // to snprintf here, then a sixth of run-tool's to std::to_chars).
-  // Written in place: each number takes at most 32 chars and its tab or line end one more.
-  const std::size_t head = out.size();
-  out.resize(head + static_cast<std::size_t>(table.num_rows()) * static_cast<std::size_t>(table.num_columns() + 1) * 33);
-  char* p = out.data() + head;
+  // Row by row through a buffer: each number takes at most 32 chars and its tab or line end one more.
+  std::vector<char> row(static_cast<std::size_t>(table.num_columns() + 1) * 33);
+  out.reserve(out.size() + static_cast<std::size_t>(table.num_rows()) * static_cast<std::size_t>(table.num_columns()) * (digits + 8));
   for (int r = 0; r < table.num_rows(); ++r) {
+    char* p = row.data();
     for (int c = 0; c < table.num_columns(); ++c) {
       if (c) *p++ = '\t';
       p = text::format_general(table.data(r, c), digits, p);
     }
     *p++ = '\n';
+    out.append(row.data(), p);
   }
-  out.resize(static_cast<std::size_t>(p - out.data()));
   return out;
 }
 

@@ -71,14 +71,17 @@ TEST(Function, LinearPolynomialConstantAndMultiplier) {
 // neighbour's segment). Checked on a piecewise-linear function, whose value is exactly
 // y_i + (x - x_i) slope_i, at, just below and between the knots; on times rounded as .sto files
 // round them; and on uneven knots, which keep bisection.
-TEST(Function, EvenlySpacedKnotsFindTheirIntervals) {
-  std::vector<double> even, uneven, y;
+// Lookups start from an index of even buckets: evenly spaced knots (a trajectory), uneven ones, and
+// clusters of knots within one bucket beside long gaps (as a knee spline's) land on bisection's interval.
+TEST(Function, KnotsFindTheirIntervals) {
+  std::vector<double> even, uneven, clustered, y;
   for (int i = 0; i < 300; ++i) {
     even.push_back(std::round((0.5 + i / 120.0) * 1e7) / 1e7);  // 120 Hz, 7 decimals
     uneven.push_back(i + 0.002 * i * i);
+    clustered.push_back(i % 50 < 45 ? 100.0 * (i / 50) + 1e-3 * (i % 50) : 100.0 * (i / 50) + 19.0 * (i % 50 - 44));
     y.push_back(std::sin(0.37 * i) + 0.1 * i);
   }
-  for (const auto& x : {even, uneven}) {
+  for (const auto& x : {even, uneven, clustered}) {
     const Function f = Function::piecewise_linear(x, y);
     auto expected = [&](double t) {
       const int n = static_cast<int>(x.size());
