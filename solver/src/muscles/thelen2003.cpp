@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/fiber_equilibrium.h"
@@ -27,7 +28,14 @@ double active_force_length(const Muscle& m, double l) { return std::exp(-(l - 1.
 
 double passive_force_length(const Muscle& m, double l) {
   if (l <= 1.0) return 0.0;
-  return (std::exp(m.kshape_passive * (l - 1.0) / m.fmax_muscle_strain) - 1.0) / (std::exp(m.kshape_passive) - 1.0);
+  // The denominator's exp is the muscle's constant, and muscles share their shape factor (OpenSim's
+  // default 4): it is kept while the factor repeats.
+  thread_local double k_kept = std::numeric_limits<double>::quiet_NaN(), denominator = 0;
+  if (m.kshape_passive != k_kept) {
+    k_kept = m.kshape_passive;
+    denominator = std::exp(k_kept) - 1.0;
+  }
+  return (std::exp(m.kshape_passive * (l - 1.0) / m.fmax_muscle_strain) - 1.0) / denominator;
 }
 
 double tendon_force_strain(const Muscle& m, double norm_tendon_length) {
