@@ -47,7 +47,7 @@ Function Function::piecewise_linear(std::vector<double> x, std::vector<double> y
   f.b_[n - 1] = f.b_[n - 2];
   f.x_ = std::move(x);
   f.y_ = std::move(y);
-  f.note_spacing();
+  f.index_knots();
   return f;
 }
 
@@ -100,7 +100,7 @@ Function Function::simm_spline(std::vector<double> x, std::vector<double> y) {
   f.b_ = std::move(b);
   f.cc_ = std::move(c);
   f.d_ = std::move(d);
-  f.note_spacing();
+  f.index_knots();
   return f;
 }
 
@@ -110,7 +110,7 @@ Function Function::scaled(double factor) const {
   return f;
 }
 
-void Function::note_spacing() {
+void Function::index_knots() {
   const int n = static_cast<int>(x_.size());
   if (n < 2 || !(x_.back() > x_.front())) return;
   const int buckets = 2 * (n - 1);

@@ -49,7 +49,7 @@ class Function {
   // trajectory's by bisection were a twentieth of CMC's instructions, a knee spline's 3 %).
   double buckets_per_x_ = 0;
   std::vector<int> bucket_interval_;
-  void note_spacing();
+  void index_knots();
   int interval(double x) const;
 };
 

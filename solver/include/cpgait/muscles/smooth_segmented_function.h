@@ -37,9 +37,9 @@ class SmoothSegmentedFunction {
   // Index of the segment holding x and its Bezier parameter u.
   void locate(double x, int& segment, double& u) const;
   std::vector<QuinticBezier> segments_;
-  // Each segment's x(u) and y(u) (and their derivatives) in the power basis (Horner: a fifth of the Bernstein form's
-  // multiplications; a CMC evaluates them millions of times), its x range's start and width, and
-  // kTable / width.
+  // Each segment's x(u) and y(u), and their derivatives, in the power basis (Horner: a fifth of the
+  // Bernstein form's multiplications; a CMC evaluates them millions of times), its x range's start
+  // and width, and kTable / width.
   struct Polynomials {
     std::array<double, 6> x, y;
     std::array<double, 5> dx, dy;  // dx/du and dy/du
