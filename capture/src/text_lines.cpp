@@ -221,9 +221,7 @@ char* format_general(double x, int digits, char* out) {
   }
   *out++ = 'e';
   *out++ = e10 < 0 ? '-' : '+';
-  const int ae = std::abs(e10);
-  if (ae >= 100) *out++ = static_cast<char>('0' + ae / 100);
-  std::memcpy(out, kPairs + 2 * (ae % 100), 2);
+  std::memcpy(out, kPairs + 2 * std::abs(e10), 2);  // |e10| < 15 here: always two digits
   return out + 2;
 }
 

@@ -102,8 +102,8 @@ CompliantMuscleState compliant_muscle_after(const Muscle& m, double a, double lm
     const double v_start = i == 1 ? at.fiber_velocity_m_s : 2 * at.fiber_velocity_m_s - v_prev;
     v_prev = at.fiber_velocity_m_s;
     double l = std::max(base + ch * v_start, lm_min);
-    double v = v_start;
     if (m.millard) {  // length and velocity by one Newton (the secant below nests Millard's velocity solve)
+      double v = v_start;
       if (const auto fibre = millard2012::implicit_fiber_step(m, a, L, base, ch, l, v)) {
         at = *fibre;
         lm_prev = lm;
