@@ -259,6 +259,12 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
                    "CMA-ES' initial step size (1: a factor e in a gain, a trunk share of 1); smaller refines a tuned controller, e.g. 0.15")
       ->check(CLI::Range(0.01, 3.0))
       ->capture_default_str();
+  gait->add_option("--tune-seed", g->tuning.seed, "CMA-ES' random seed (each round adds its index): another seed, another search")
+      ->capture_default_str();
+  gait->add_option("--tune-population", g->tuning.population,
+                   "CMA-ES' population, candidates per generation: 0 (4 + 3 ln n, 10 for the 9 searched parameters) or at least 2, e.g. 20")
+      ->check(CLI::Range(0, 200))
+      ->capture_default_str();
   gait->add_option("--tune-speeds", g->tuning.speeds, "speed knobs each tuning candidate walks at (its cost their mean), e.g. 0.8 1 1.2")
       ->check(CLI::Range(0.2, 5.0))
       ->capture_default_str();

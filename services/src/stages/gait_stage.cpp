@@ -20,6 +20,7 @@ struct GaitStageOptions {
   int tune_evaluations = 0;
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
+  int tune_population = 0;
   double tune_rotation_limit_deg = 0;
   bool tune_entrainment = false;
   int foot_spheres = 2;
@@ -63,6 +64,9 @@ struct GaitStageOptions {
                     NumberRange{0.5, 30.0, true})
             .integer("tune_rounds", &GaitStageOptions::tune_rounds, 1, 10,
                      "CMA-ES restarts, each from the last best, their horizons rising evenly to tune_horizon_s")
+            .integer("tune_population", &GaitStageOptions::tune_population, 0, 200,
+                     "tuning: CMA-ES' candidates per generation, in every tuning of the stage: 0 (CMA-ES' own, 10 for the 9 searched "
+                     "parameters) or at least 2")
             .boolean("tune_entrainment", &GaitStageOptions::tune_entrainment,
                      "tuning: also search the CPG's entrainment by phase resetting, the share of its phase error made up at each "
                      "touchdown (0-1)")
@@ -179,6 +183,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.evaluations = o.tune_evaluations;
   to.horizon_s = o.tune_horizon_s;
   to.rounds = o.tune_rounds;
+  to.population = o.tune_population;
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.tune_entrainment = o.tune_entrainment;
   to.foot_spheres = o.foot_spheres;
@@ -191,7 +196,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
+                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;

@@ -80,6 +80,9 @@ struct GaitTuningOptions {
   // foot_spheres): default_foot_contacts' spheres per foot, 0 for a contact file's (default 2). A
   // speed knob's entry is tuned on the controller's feet only (else std::invalid_argument).
   int foot_spheres = 2;
+  // CMA-ES' population, candidates per generation (default 0: CMA-ES' own, 4 + 3 ln n: 10 for the 9
+  // searched parameters). Larger explores more per generation in fewer generations.
+  int population = 0;
   int num_threads = 0;          // simulations in parallel; 0: every core
   unsigned long long seed = 1;
 };
