@@ -109,6 +109,15 @@ TEST(CmaEs, StaysInsideItsBounds) {
   EXPECT_LE(s.best_x.maxCoeff(), 1.0);
 }
 
+// A population of one has no better half to recombine; a negative one is no population.
+TEST(CmaEs, RefusesAPopulationBelowTwo) {
+  for (int population : {1, -3}) {
+    CmaEsOptions o;
+    o.population = population;
+    EXPECT_THROW(cma_es([](const VectorXd& x) { return x.squaredNorm(); }, VectorXd::Zero(2), o), std::invalid_argument) << population;
+  }
+}
+
 TEST(CmaEs, TheSameSearchOnOneThreadOrFourAndEvaluationsRunInParallel) {
   CmaEsOptions o;
   o.max_evaluations = 600;

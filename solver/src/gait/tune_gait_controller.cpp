@@ -83,8 +83,6 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   if (t.foot_spheres != 0 && t.foot_spheres != 2 && t.foot_spheres != 5)
     throw std::invalid_argument("tune_gait_controller: foot_spheres is 2 or 5 (spheres per foot) or 0 (a contact file)");
   if (!(t.initial_step > 0)) throw std::invalid_argument("tune_gait_controller: the initial step must be positive");
-  if (t.population < 0 || t.population == 1)
-    throw std::invalid_argument("tune_gait_controller: the population is 0 (CMA-ES' own) or at least 2 (CMA-ES recombines the better half)");
   std::vector<int> rotations;
   for (int c = 0; c < model.num_coordinates(); ++c)
     if (model.coordinates[c].is_angle()) rotations.push_back(c);

@@ -28,6 +28,7 @@ CmaEsSummary cma_es(const CmaEsObjective& f, const Eigen::VectorXd& x0, const Cm
   if (n < 1) throw std::invalid_argument("cma_es: x0 is empty");
   const bool bounded = o.lower.size() == n && o.upper.size() == n;
   if ((o.lower.size() != 0 || o.upper.size() != 0) && !bounded) throw std::invalid_argument("cma_es: bounds must have x0's size");
+  if (o.population < 0 || o.population == 1) throw std::invalid_argument("cma_es: the population is 0 (the default) or at least 2 (it recombines the better half)");
   // Strategy parameters (the tutorial's Table 1).
   const int lambda = o.population > 0 ? o.population : 4 + static_cast<int>(std::floor(3.0 * std::log(static_cast<double>(n))));
   const int mu = lambda / 2;

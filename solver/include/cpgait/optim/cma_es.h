@@ -13,7 +13,7 @@ namespace cpgait {
 
 struct CmaEsOptions {
   double initial_sigma = 0.3;     // initial step size, in the units of x (default 0.3)
-  int population = 0;             // lambda; 0: 4 + floor(3 ln n), the tutorial's default
+  int population = 0;             // lambda, at least 2 (it recombines the better half); 0: 4 + floor(3 ln n), the tutorial's default
   int max_evaluations = 10000;    // stop after this many evaluations of f (default 10,000)
   double target_value = -1e300;   // stop once f(best) <= this (default: never)
   double function_tolerance = 1e-12;  // stop when a generation's and the last 10 generations' best values span less than this
