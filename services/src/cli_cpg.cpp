@@ -265,6 +265,15 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
                    "CMA-ES' population, candidates per generation: 0 (4 + 3 ln n, 10 for the 9 searched parameters) or at least 2, e.g. 20")
       ->check(CLI::Range(0, 200))
       ->capture_default_str();
+  gait->add_option("--tune-restarts", g->tuning.restarts,
+                   "when the tuned walk falls before the horizon, CMA-ES again from the best so far, up to this many times, each with "
+                   "a round's share of --tune (on top of it), until a walk lasts the horizon")
+      ->check(CLI::Range(0, 10))
+      ->capture_default_str();
+  gait->add_option("--tune-step-decay", g->tuning.step_decay,
+                   "each tuning round's and restart's initial step is the last's times this, e.g. 0.55: 0.5, 0.28, 0.15 over three rounds")
+      ->check(CLI::Range(0.01, 1.0))
+      ->capture_default_str();
   gait->add_option("--tune-speeds", g->tuning.speeds, "speed knobs each tuning candidate walks at (its cost their mean), e.g. 0.8 1 1.2")
       ->check(CLI::Range(0.2, 5.0))
       ->capture_default_str();

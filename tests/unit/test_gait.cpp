@@ -801,6 +801,57 @@ TEST(GaitTuning, PopulationAndSeedShapeTheSearch) {
   EXPECT_THROW(q.tune(t), std::invalid_argument);
 }
 
+// Restarts run while the tuned walk falls: pushed down hard the still walker falls whatever its gains,
+// so after the round's two generations of 3 both restarts run, two generations each. Each restart's
+// step is the last's times step_decay: at 1e-4 the restart barely moves the round's result, at 1 it
+// moves it. On the level the walker stands the horizon: none runs. A start that walks is kept
+// unsearched when its strides are within the bound: the still walker makes none (an error of 1),
+// so a bound of 1 keeps it, 0.5 not.
+TEST(GaitTuning, RestartsRunWhileTheWalkFallsAndAWalkingStartCanBeKept) {
+  const QuickTuning q(6);
+  GaitTuningOptions t = q.t;
+  t.population = 3;
+  GaitTuningOptions pushed = t;
+  pushed.pushes_N_s = {Eigen::Vector3d(0, -100, 0)};
+  const GaitTuningResult round = q.tune(pushed);
+  pushed.restarts = 2;
+  const GaitTuningSummary fell = q.tune(pushed).summary;
+  std::printf("[info] pushed: %s\n", fell.BriefReport().c_str());
+  ASSERT_LT(fell.walked_s, t.horizon_s);
+  EXPECT_EQ(fell.restarts, 2);
+  EXPECT_EQ(fell.evaluations, 1 + 6 + 6 + 6);
+  auto kp_moved = [&](double decay) {
+    GaitTuningOptions once = pushed;
+    once.restarts = 1;
+    once.step_decay = decay;
+    return std::abs(std::log(q.tune(once).cpg.controller->reflex_kp / round.cpg.controller->reflex_kp));
+  };
+  const double decayed = kp_moved(1e-4), undecayed = kp_moved(1.0);
+  std::printf("[info] |log(kp / kp of the round)| after a restart: %.2e at decay 1e-4, %.2e at 1\n", decayed, undecayed);
+  EXPECT_LT(decayed, 1e-3);
+  EXPECT_GT(undecayed, 1e-2);
+  GaitTuningOptions level = t;
+  level.restarts = 2;
+  const GaitTuningSummary stood = q.tune(level).summary;
+  ASSERT_EQ(stood.walked_s, t.horizon_s);
+  EXPECT_EQ(stood.restarts, 0);
+  EXPECT_EQ(stood.evaluations, 1 + 6);
+  EXPECT_FALSE(stood.kept_start);
+  level.keep_walking_start_stride = 1.0;
+  const GaitTuningResult kept = q.tune(level);
+  EXPECT_TRUE(kept.summary.kept_start);
+  EXPECT_EQ(kept.summary.evaluations, 1);
+  EXPECT_EQ(kept.summary.cost, kept.summary.start_cost);
+  EXPECT_EQ(kept.cpg.controller->reflex_kp, 100.0);  // the untuned start's
+  EXPECT_TRUE(kept.cpg.controller->phase_reference);  // as it was scored
+  level.keep_walking_start_stride = 0.5;
+  EXPECT_FALSE(q.tune(level).summary.kept_start);
+  for (double decay : {0.0, 1.5}) {
+    level.step_decay = decay;
+    EXPECT_THROW(q.tune(level), std::invalid_argument) << decay;
+  }
+}
+
 // The entrainment share is searched only when asked: from a controller's 0.5 it stays 0.5 without
 // tune_entrainment, and moves (within [0, 1]) with it.
 TEST(GaitTuning, EntrainmentIsSearchedWhenAsked) {

@@ -21,6 +21,7 @@ struct GaitStageOptions {
   double tune_horizon_s = 5.0;
   int tune_rounds = 1;
   int tune_population = 0;
+  int tune_restarts = 0;
   double tune_rotation_limit_deg = 0;
   bool tune_entrainment = false;
   int foot_spheres = 2;
@@ -29,6 +30,7 @@ struct GaitStageOptions {
   std::vector<double> tune_stop_at;
   std::vector<double> speed_knobs;
   int schedule_evaluations = 0;
+  double schedule_step_decay = 1.0;
   std::vector<double> check_tolerances = {5e-4, 2e-3};
   double tolerance = 1e-3, control_interval_s = 0.0025;
   std::string integrator = "ros34pw2";
@@ -67,6 +69,10 @@ struct GaitStageOptions {
             .integer("tune_population", &GaitStageOptions::tune_population, 0, 200,
                      "tuning: CMA-ES' candidates per generation, in every tuning of the stage: 0 (CMA-ES' own, 10 for the 9 searched "
                      "parameters) or at least 2")
+            .integer("tune_restarts", &GaitStageOptions::tune_restarts, 0, 10,
+                     "tuning: when a tuning's result falls before tune_horizon_s, CMA-ES again over the whole horizon, up to this many "
+                     "times, each from the best so far with a round's share of the simulations (on top of the budget), until a walk "
+                     "lasts the horizon (0: none)")
             .boolean("tune_entrainment", &GaitStageOptions::tune_entrainment,
                      "tuning: also search the CPG's entrainment by phase resetting, the share of its phase error made up at each "
                      "touchdown (0-1)")
@@ -101,7 +107,12 @@ struct GaitStageOptions {
             .integer("schedule_evaluations", &GaitStageOptions::schedule_evaluations, 0, 5000,
                      "after tuning, tune the controller again at each of speed_knobs with this many simulations, each from the "
                      "schedule at that knob so far: a gain schedule over the knob, stored in _cpg_tuned.json (0: one controller at every "
-                     "knob)")
+                     "knob). A knob where the schedule so far already walks tune_horizon_s, its stride within 5 % of cycle / knob, "
+                     "keeps it unsearched")
+            .number("schedule_step_decay", &GaitStageOptions::schedule_step_decay, "",
+                    "the speed knobs' tunings: each round's and restart's initial CMA-ES step is the last's times this (1: 0.5 for all; "
+                    "0.55: 0.5, 0.28, 0.15 over three rounds, refining the last round's walker)",
+                    NumberRange{0.01, 1.0})
             .number_list("check_tolerances", &GaitStageOptions::check_tolerances, "",
                          "without residuals: the walk again at each of these integrator tolerances (the walk's own: tolerance), reported in "
                          "the summary's tolerance_check; a controller that walks at its own but falls at any of these walks by one "
@@ -184,6 +195,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.horizon_s = o.tune_horizon_s;
   to.rounds = o.tune_rounds;
   to.population = o.tune_population;
+  to.restarts = o.tune_restarts;
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.tune_entrainment = o.tune_entrainment;
   to.foot_spheres = o.foot_spheres;
@@ -196,17 +208,20 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
+                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;
+  to.step_decay = o.schedule_step_decay;
+  to.keep_walking_start_stride = 0.05;  // issue 22's stride target: at 1.2 subject01's search cost 340 s where its start walked
   for (double knob : o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{}) {
     ReproducedGaitOptions at = go;
     at.speed = knob;
     const GaitTuningResult k = tune_gait_controller(model, driving, reference, feet, at, to, trial.progress);
     driving = k.cpg;
     tuning["schedule"].push_back({{"speed_knob", knob}, {"simulations", k.summary.evaluations}, {"seconds", k.summary.seconds},
-                                  {"walked_s", {k.summary.start_walked_s, k.summary.walked_s}}});
+                                  {"walked_s", {k.summary.start_walked_s, k.summary.walked_s}}, {"restarts", k.summary.restarts}, {"step_decay", o.schedule_step_decay},
+                                  {"kept_start", k.summary.kept_start}});
   }
   trial.write_text(json_text(driving.to_json(), 2) + "\n", "_cpg_tuned.json");
   return tuning;

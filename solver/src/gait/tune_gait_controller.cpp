@@ -83,6 +83,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   if (t.foot_spheres != 0 && t.foot_spheres != 2 && t.foot_spheres != 5)
     throw std::invalid_argument("tune_gait_controller: foot_spheres is 2 or 5 (spheres per foot) or 0 (a contact file)");
   if (!(t.initial_step > 0)) throw std::invalid_argument("tune_gait_controller: the initial step must be positive");
+  if (!(t.step_decay > 0 && t.step_decay <= 1)) throw std::invalid_argument("tune_gait_controller: the step decay lies in (0, 1]");
+  if (t.restarts < 0) throw std::invalid_argument("tune_gait_controller: restarts must not be negative");
   std::vector<int> rotations;
   for (int c = 0; c < model.num_coordinates(); ++c)
     if (model.coordinates[c].is_angle()) rotations.push_back(c);
@@ -135,8 +137,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   }
   // One candidate's simulations and score; walked receives the shortest time it walked. The start's
   // errors (the inputs') propagate; a candidate's score as falling at once.
-  auto score = [&](const Candidate& k, double* walked, bool rethrow) {
-    double cost = 0, time_walked = horizon_s;
+  auto score = [&](const Candidate& k, double* walked, bool rethrow, double* worst_stride_error = nullptr) {
+    double cost = 0, time_walked = horizon_s, worst_stride = 0;
     double cost_here = 0, walked_here = horizon_s;
     for (std::size_t i = 0; i < walks.size(); ++i) {
       const Walk& w = walks[i];
@@ -169,6 +171,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
           const double cycle_s = cpg.cycle_s / (cpg.speed * o.speed);
           const double stride_error = g.stride_time_s > 0 ? std::abs(g.stride_time_s / cycle_s - 1.0) : 1.0;
           cost_here += t.tracking_weight * tracking + t.effort_weight * effort + t.stride_weight * stride_error;
+          worst_stride = std::max(worst_stride, stride_error);
           if (t.worst_rotation_limit_deg > 0)
             cost_here += t.fall_weight * std::max(0.0, worst * 180 / M_PI - t.worst_rotation_limit_deg) / t.worst_rotation_limit_deg;
         }
@@ -179,6 +182,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       time_walked = std::min(time_walked, walked_here);
     }
     if (walked) *walked = time_walked;
+    if (worst_stride_error) *worst_stride_error = worst_stride;
     const int n = ++done;
     std::lock_guard<std::mutex> lock(progress_mutex);
     if (cost < best_cost) best_cost = cost, best_walked = time_walked;
@@ -189,31 +193,47 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   const int parameters = kParameters + (t.tune_entrainment ? kEntrainmentParameters : 0);
   const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(parameters);
   // The start, scored over the whole horizon for the summary.
-  result.summary.start_cost = score(decode(x0, *working.controller, base), &result.summary.start_walked_s, true);
+  double start_stride_error = 0;
+  result.summary.start_cost = score(decode(x0, *working.controller, base), &result.summary.start_walked_s, true, &start_stride_error);
   double cost = result.summary.start_cost, walked = result.summary.start_walked_s;
-  for (int round = 0; round < t.rounds; ++round) {
-    horizon_s = t.horizon_s * (round + 1) / t.rounds;
+  result.summary.kept_start = t.keep_walking_start_stride > 0 && walked >= t.horizon_s && start_stride_error <= t.keep_walking_start_stride;
+  if (result.summary.kept_start) working.controller = decode(x0, *working.controller, base).controller;  // as it was scored
+  // One CMA-ES search from the best so far (its cost and walk over this horizon given), which it
+  // replaces when it finds better.
+  auto search = [&](int evaluations, unsigned long long seed, double from_cost, double from_walked, double step) {
     const CpgController from = *working.controller;
     best_cost = std::numeric_limits<double>::infinity();
-    double round_start_walked = walked;
-    const double round_start_cost = t.rounds == 1 ? cost : score(decode(x0, from, base), &round_start_walked, true);
     CmaEsOptions co;
-    co.initial_sigma = t.initial_step;
-    co.max_evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
+    co.initial_sigma = step;
+    co.max_evaluations = evaluations;
     co.num_threads = t.num_threads;
     co.population = t.population;
-    co.seed = t.seed + static_cast<unsigned long long>(round);
+    co.seed = seed;
     co.lower = Eigen::VectorXd::Constant(parameters, -3.0);  // gains from 1/20 of the start's ...
     co.upper = Eigen::VectorXd::Constant(parameters, 3.0);   // ... to 20 times; balance steps +-3
     co.upper[0] = 4.0;                                         // kp to 55 times
     const CmaEsSummary s = cma_es([&](const Eigen::VectorXd& p) { return score(decode(p, from, base), nullptr, false); }, x0, co);
-    cost = round_start_cost, walked = round_start_walked;
-    if (s.best_value < round_start_cost) {
+    cost = from_cost, walked = from_walked;
+    if (s.best_value < from_cost) {
       const Candidate k = decode(s.best_x, from, base);
       working.controller = k.controller;
       working.amplitude *= k.amplitude_factor;
       cost = s.best_value, walked = best_walked;
     }
+  };
+  // The rounds over rising horizons, then the restarts over the whole horizon while the walk falls:
+  // each a search from the best so far with the next seed, its initial step the last's times step_decay.
+  double step = t.initial_step;
+  for (int round = 0; round < t.rounds + t.restarts && !result.summary.kept_start; ++round, step *= t.step_decay) {
+    const bool restart = round >= t.rounds;
+    if (restart && walked >= t.horizon_s) break;
+    const double last_horizon_s = horizon_s;
+    horizon_s = t.horizon_s * std::min(round + 1, t.rounds) / t.rounds;
+    double from_walked = walked;
+    const double from_cost = horizon_s == last_horizon_s ? cost : score(decode(x0, *working.controller, base), &from_walked, true);
+    const int evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
+    search(evaluations, t.seed + static_cast<unsigned long long>(round), from_cost, from_walked, step);
+    result.summary.restarts += restart;
   }
   // Over the whole horizon the start may still score better than the rounds' result.
   if (cost > result.summary.start_cost) {
@@ -239,9 +259,10 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
 }
 
 std::string GaitTuningSummary::BriefReport() const {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, "gait tuning: %d simulations in %.1f s; cost %.3f -> %.3f; walked %.2f s -> %.2f s before falling (or the horizon)",
-                evaluations, seconds, start_cost, cost, start_walked_s, walked_s);
+  char buf[320];
+  std::snprintf(buf, sizeof buf, "gait tuning: %d simulations in %.1f s; cost %.3f -> %.3f; walked %.2f s -> %.2f s before falling (or the horizon)%s",
+                evaluations, seconds, start_cost, cost, start_walked_s, walked_s,
+                kept_start ? "; the start walked and was kept" : restarts > 0 ? ("; " + std::to_string(restarts) + " restart(s)").c_str() : "");
   return buf;
 }
 

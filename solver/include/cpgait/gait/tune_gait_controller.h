@@ -83,6 +83,16 @@ struct GaitTuningOptions {
   // CMA-ES' population, candidates per generation (default 0: CMA-ES' own, 4 + 3 ln n: 10 for the 9
   // searched parameters). Larger explores more per generation in fewer generations.
   int population = 0;
+  // When the rounds' result falls before the horizon: CMA-ES again over the whole horizon, up to this
+  // many times, each from the best so far with the next seed and a round's share of the evaluations
+  // (on top of `evaluations`), until a walk lasts the horizon (default 0: none).
+  int restarts = 0;
+  // Each round's (and restart's) initial step is the last's times this (default 1: initial_step for
+  // all): later rounds, from a walker of a shorter horizon, refine it. Measured: docs/gait-tuning.md.
+  double step_decay = 1.0;
+  // Keep the start unsearched when it already walks every walk's whole horizon, each walk's stride
+  // within this fraction of cycle / speed (default 0: always search; the gait stage's speed knobs: 0.05).
+  double keep_walking_start_stride = 0;
   int num_threads = 0;          // simulations in parallel; 0: every core
   unsigned long long seed = 1;
 };
@@ -94,6 +104,8 @@ struct GaitTuningSummary {
   // The shortest of the walks taken, over the horizon, before falling (= horizon: none fell). A walk
   // that fell is not taken at the next tolerances, where it may fall sooner.
   double start_walked_s = 0, walked_s = 0;
+  int restarts = 0;            // CMA-ES' restarts run (GaitTuningOptions::restarts)
+  bool kept_start = false;     // the start walked and was kept unsearched (keep_walking_start_stride)
   std::string BriefReport() const;
 };
 
