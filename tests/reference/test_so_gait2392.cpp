@@ -531,7 +531,8 @@ TEST(CpgGait2392, TunedControllerWalksWithoutResidualsAndReplaysFromTheCpgJson) 
 // 604 simulations, 148 s, stride 1.249 s (cycle 1.234 s), 1.03 m/s; 0.8 1,004 simulations (the rounds
 // walked 9.87 s, the second restart 10 s), 233 s, stride 1.501 s against 1.543 s, 0.69 m/s; 1.2 kept
 // its start (1 simulation, 0.9 s), stride 1.023 s against 1.028 s, 1.26 m/s. Without the step decay
-// the 0.8 entry walked in 1 of 8 seeds, with it 3 of 8 (docs/gait-tuning.md): like the tuned test
+// the 0.8 entry walked in 1 of 8 seeds, with it 3 of 8, with 3 restarts too 5 of 8 (docs/gait-tuning.md,
+// from the CLI without the stop trial and rotation bound): like the tuned test
 // above, this is one search, which the arithmetic's rounding moves.
 TEST(CpgGait2392, PipelineTunesSpeedKnobsThatEachWalk10s) {
   for (const auto& p : subject01_gait_inputs()) REQUIRE_REFERENCE(p);
