@@ -198,17 +198,25 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   double cost = result.summary.start_cost, walked = result.summary.start_walked_s;
   result.summary.kept_start = t.keep_walking_start_stride > 0 && walked >= t.horizon_s && start_stride_error <= t.keep_walking_start_stride;
   if (result.summary.kept_start) working.controller = decode(x0, *working.controller, base).controller;  // as it was scored
-  // One CMA-ES search from the best so far (its cost and walk over this horizon given), which it
-  // replaces when it finds better.
-  auto search = [&](int evaluations, unsigned long long seed, double from_cost, double from_walked, double step) {
+  // The rounds over rising horizons, then the restarts over the whole horizon while the walk falls:
+  // each a CMA-ES search from the best so far with the next seed, its initial step the last's times
+  // step_decay, whose best replaces it when better.
+  double step = t.initial_step;
+  for (int round = 0; round < t.rounds + t.restarts && !result.summary.kept_start; ++round, step *= t.step_decay) {
+    const bool restart = round >= t.rounds;
+    if (restart && walked >= t.horizon_s) break;
+    const double last_horizon_s = horizon_s;
+    horizon_s = t.horizon_s * std::min(round + 1, t.rounds) / t.rounds;
     const CpgController from = *working.controller;
+    double from_walked = walked;
+    const double from_cost = horizon_s == last_horizon_s ? cost : score(decode(x0, from, base), &from_walked, true);
     best_cost = std::numeric_limits<double>::infinity();
     CmaEsOptions co;
     co.initial_sigma = step;
-    co.max_evaluations = evaluations;
+    co.max_evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
     co.num_threads = t.num_threads;
     co.population = t.population;
-    co.seed = seed;
+    co.seed = t.seed + static_cast<unsigned long long>(round);
     co.lower = Eigen::VectorXd::Constant(parameters, -3.0);  // gains from 1/20 of the start's ...
     co.upper = Eigen::VectorXd::Constant(parameters, 3.0);   // ... to 20 times; balance steps +-3
     co.upper[0] = 4.0;                                         // kp to 55 times
@@ -220,19 +228,6 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       working.amplitude *= k.amplitude_factor;
       cost = s.best_value, walked = best_walked;
     }
-  };
-  // The rounds over rising horizons, then the restarts over the whole horizon while the walk falls:
-  // each a search from the best so far with the next seed, its initial step the last's times step_decay.
-  double step = t.initial_step;
-  for (int round = 0; round < t.rounds + t.restarts && !result.summary.kept_start; ++round, step *= t.step_decay) {
-    const bool restart = round >= t.rounds;
-    if (restart && walked >= t.horizon_s) break;
-    const double last_horizon_s = horizon_s;
-    horizon_s = t.horizon_s * std::min(round + 1, t.rounds) / t.rounds;
-    double from_walked = walked;
-    const double from_cost = horizon_s == last_horizon_s ? cost : score(decode(x0, *working.controller, base), &from_walked, true);
-    const int evaluations = t.evaluations / t.rounds + (round + 1 == t.rounds ? t.evaluations % t.rounds : 0);
-    search(evaluations, t.seed + static_cast<unsigned long long>(round), from_cost, from_walked, step);
     result.summary.restarts += restart;
   }
   // Over the whole horizon the start may still score better than the rounds' result.
@@ -260,10 +255,12 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
 
 std::string GaitTuningSummary::BriefReport() const {
   char buf[320];
-  std::snprintf(buf, sizeof buf, "gait tuning: %d simulations in %.1f s; cost %.3f -> %.3f; walked %.2f s -> %.2f s before falling (or the horizon)%s",
-                evaluations, seconds, start_cost, cost, start_walked_s, walked_s,
-                kept_start ? "; the start walked and was kept" : restarts > 0 ? ("; " + std::to_string(restarts) + " restart(s)").c_str() : "");
-  return buf;
+  std::snprintf(buf, sizeof buf, "gait tuning: %d simulations in %.1f s; cost %.3f -> %.3f; walked %.2f s -> %.2f s before falling (or the horizon)",
+                evaluations, seconds, start_cost, cost, start_walked_s, walked_s);
+  std::string report = buf;
+  if (kept_start) report += "; the start walked and was kept";
+  if (restarts > 0) report += "; " + std::to_string(restarts) + " restart(s)";
+  return report;
 }
 
 }  // namespace cpgait
