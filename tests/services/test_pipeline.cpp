@@ -291,7 +291,7 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
                                        {"gait", "tune_steps_m"}, {"gait", "tune_pushes_N_s"}, {"gait", "tune_tolerances"}, {"gait", "tune_step_at"},
                                        {"gait", "check_tolerances"}, {"gait", "foot_spheres"}, {"gait", "tolerance"},
                                        {"gait", "control_interval_s"}, {"gait", "tune_entrainment"}, {"gait", "integrator"},
-                                       {"gait", "tune_stop_at"}, {"gait", "tune_population"}, {"gait", "tune_restarts"},
+                                       {"gait", "tune_stop_at"}, {"gait", "tune_population"}, {"gait", "tune_restarts"}, {"gait", "tune_seed"},
                                        {"gait", "schedule_step_decay"}}) {
     EXPECT_EQ(written_doc[section][field], PipelineOptions().to_json()[section][field]) << section << "." << field;
     written_doc[section].erase(field);

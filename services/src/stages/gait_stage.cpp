@@ -22,6 +22,7 @@ struct GaitStageOptions {
   int tune_rounds = 1;
   int tune_population = 0;
   int tune_restarts = 0;
+  int tune_seed = 1;
   double tune_rotation_limit_deg = 0;
   bool tune_entrainment = false;
   int foot_spheres = 2;
@@ -73,6 +74,9 @@ struct GaitStageOptions {
                      "tuning: when a tuning's result falls before tune_horizon_s, CMA-ES again over the whole horizon, up to this many "
                      "times, each from the best so far with a round's share of the simulations (on top of the budget), until a walk "
                      "lasts the horizon (0: none)")
+            .integer("tune_seed", &GaitStageOptions::tune_seed, 1, 1000000,
+                     "tuning: CMA-ES' random seed in every tuning of the stage (each round and restart adds its index): another "
+                     "seed, another search, when a tuned walk falls")
             .boolean("tune_entrainment", &GaitStageOptions::tune_entrainment,
                      "tuning: also search the CPG's entrainment by phase resetting, the share of its phase error made up at each "
                      "touchdown (0-1)")
@@ -196,6 +200,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.rounds = o.tune_rounds;
   to.population = o.tune_population;
   to.restarts = o.tune_restarts;
+  to.seed = static_cast<unsigned long long>(o.tune_seed);
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.tune_entrainment = o.tune_entrainment;
   to.foot_spheres = o.foot_spheres;
@@ -208,7 +213,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   driving = tuned.cpg;
   nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
+                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   to.evaluations = o.schedule_evaluations;
