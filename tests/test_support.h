@@ -146,6 +146,12 @@ inline std::map<std::string, ColumnDifference> column_differences(const Storage&
   return out;
 }
 
+// The gait stage's options for the walk held by pelvis residuals, untuned: the stage's defaults before
+// 2026-11-29, for tests that check the other stages through a whole pipeline (the default tunes a
+// controller to walk on its own, minutes on subject01).
+inline constexpr const char* kResidualGaitOptions =
+    R"({"residuals": true, "phase_reference": false, "foot_spheres": 2, "tune_evaluations": 0, "speed_knobs": []})";
+
 #ifdef CPGAIT_BINARY
 // The cpgait executable with these arguments: its exit status and everything it printed.
 struct CliRun {

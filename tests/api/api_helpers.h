@@ -38,6 +38,10 @@ inline httplib::MultipartFormDataItems trial_form(const std::string& trc, const 
 
 inline json body(const httplib::Result& r) { return json::parse(r->body); }
 
+// The built-in walker, its gait held by residuals untuned: the long trials that keep workers busy run
+// as before 2026-11-29 (the gait stage's default tunes a controller for minutes).
+inline json walker_with_residual_gait() { return {{"model", "walker"}, {"gait", json::parse(cpgait::refdata::kResidualGaitOptions)}}; }
+
 inline std::string wait_finished(httplib::Client& c, const std::string& id, double timeout_s) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (std::chrono::steady_clock::now() < deadline) {

@@ -92,10 +92,11 @@ TEST(ApiReference, Subject01UploadMatchesCliRun) {
   EXPECT_EQ(refused->status, 422);
   EXPECT_EQ(body(refused)["error"]["field"], "scale_muscles_from");
 
-  // The whole trial (two gait cycles for the reproduced gait), the IK setup's marker weights.
+  // The whole trial (two gait cycles for the reproduced gait, held by residuals), the IK setup's marker weights.
   const json options = {{"model", model_id},
                         {"scale_muscles_from", generic_id},
-                        {"ik", {{"tasks", json::parse(cpgait::ik_tasks_json(cpgait::read_ik_tasks(pl + "subject01_Setup_IK.xml")))}}}};
+                        {"ik", {{"tasks", json::parse(cpgait::ik_tasks_json(cpgait::read_ik_tasks(pl + "subject01_Setup_IK.xml")))}}},
+                        {"gait", json::parse(cpgait::refdata::kResidualGaitOptions)}};
   httplib::MultipartFormDataItems form = trial_form(slurp(pl + "subject01_walk1.trc"), "subject01_walk1.trc", options);
   form.push_back({"grf", slurp(pl + "subject01_walk1_grf.mot"), "subject01_walk1_grf.mot", "text/plain"});
   form.push_back({"loads", slurp(pl + "subject01_walk1_grf.xml"), "subject01_walk1_grf.xml", "application/xml"});
@@ -544,7 +545,7 @@ TEST(Api, KillDuringJobsThenRestartCompletesEverything) {
     // Long trials (a minute of walking each) queue behind one worker.
     const std::string long_trc = synthetic_trc(60.0, 2);
     for (int i = 0; i < 3; ++i) {
-      auto r = c.Post("/api/v1/trials", trial_form(long_trc, "long" + std::to_string(i) + ".trc", {{"model", "walker"}}));
+      auto r = c.Post("/api/v1/trials", trial_form(long_trc, "long" + std::to_string(i) + ".trc", walker_with_residual_gait()));
       ASSERT_EQ(r->status, 202) << r->body;
       ids.push_back(body(r)["id"]);
     }
@@ -852,8 +853,8 @@ TEST(Api, TokenCancelDeleteListAndMetrics) {
   EXPECT_EQ(c.Get("/healthz")->status, 200);  // health needs no token
   // A long trial to cancel, a queued one behind it to cancel, a short one to keep.
   const std::string long_trc = synthetic_trc(60.0, 3);
-  const std::string a = body(c.Post("/api/v1/trials", trial_form(long_trc, "a.trc", {{"model", "walker"}})))["id"];
-  const std::string b = body(c.Post("/api/v1/trials", trial_form(long_trc, "b.trc", {{"model", "walker"}})))["id"];
+  const std::string a = body(c.Post("/api/v1/trials", trial_form(long_trc, "a.trc", walker_with_residual_gait())))["id"];
+  const std::string b = body(c.Post("/api/v1/trials", trial_form(long_trc, "b.trc", walker_with_residual_gait())))["id"];
   const std::string k = body(c.Post("/api/v1/trials", trial_form(synthetic_trc(0.3), "k.trc", {{"model", "walker"}, {"stages", {"ik"}}})))["id"];
   EXPECT_EQ(c.Post(("/api/v1/trials/" + b + "/cancel").c_str())->status, 202);
   const auto started_by = std::chrono::steady_clock::now() + std::chrono::seconds(60);  // liveness bound

@@ -167,7 +167,7 @@ TEST(ScaleOut, KilledWorkersAndServerLoseNoTrialAndRewriteNoResult) {
   const std::string trc = synthetic_trc(10.0, 5);
   const int n = 18;
   for (int i = 0; i < n; ++i) {
-    auto r = client().Post("/api/v1/trials", trial_form(trc, "long" + std::to_string(i) + ".trc", {{"model", "walker"}}));
+    auto r = client().Post("/api/v1/trials", trial_form(trc, "long" + std::to_string(i) + ".trc", walker_with_residual_gait()));
     ASSERT_TRUE(r && r->status == 202);
   }
   auto db = cpgait::services::open_postgres(pg.url());
@@ -244,13 +244,13 @@ TEST(ScaleOut, PostgresRestartLosesNoTrial) {
   httplib::Client c("127.0.0.1", api.port());
   const std::string trc = synthetic_trc(10.0, 6);
   const int n = 10;
-  for (int i = 0; i < n; ++i) ASSERT_EQ(c.Post("/api/v1/trials", trial_form(trc, "restart" + std::to_string(i) + ".trc", {{"model", "walker"}}))->status, 202);
+  for (int i = 0; i < n; ++i) ASSERT_EQ(c.Post("/api/v1/trials", trial_form(trc, "restart" + std::to_string(i) + ".trc", walker_with_residual_gait()))->status, 202);
   while (count_status(c, "done") < 2) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   pg.restart();
   // The API answers again (its pool reconnects), and takes uploads.
   auto after = c.Get("/api/v1/trials?limit=1");
   ASSERT_TRUE(after && after->status == 200) << (after ? after->body : "no answer");
-  ASSERT_EQ(c.Post("/api/v1/trials", trial_form(trc, "late.trc", {{"model", "walker"}}))->status, 202);
+  ASSERT_EQ(c.Post("/api/v1/trials", trial_form(trc, "late.trc", walker_with_residual_gait()))->status, 202);
   ASSERT_TRUE(wait_all_done([&]() -> httplib::Client& { return c; }, n + 1, 600)) << count_status(c, "done") << " done";
   std::vector<std::string> logs;
   for (auto& w : workers) logs.push_back(w->log());
@@ -282,7 +282,7 @@ TEST(ScaleOut, CancelAndDeleteReachATrialRunningInAnotherProcess) {
     }
     return false;
   };
-  const std::string a = body(c.Post("/api/v1/trials", trial_form(trc, "a.trc", {{"model", "walker"}})))["id"];
+  const std::string a = body(c.Post("/api/v1/trials", trial_form(trc, "a.trc", walker_with_residual_gait())))["id"];
   ASSERT_TRUE(running_on_worker(a));
   const auto asked = std::chrono::steady_clock::now();
   EXPECT_EQ(c.Post(("/api/v1/trials/" + a + "/cancel").c_str())->status, 202);
@@ -290,7 +290,7 @@ TEST(ScaleOut, CancelAndDeleteReachATrialRunningInAnotherProcess) {
   const double cancel_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - asked).count();
   EXPECT_LT(cancel_s, 10.0) << "the worker did not see the cancel at its heartbeat";
 
-  const std::string b = body(c.Post("/api/v1/trials", trial_form(trc, "b.trc", {{"model", "walker"}})))["id"];
+  const std::string b = body(c.Post("/api/v1/trials", trial_form(trc, "b.trc", walker_with_residual_gait())))["id"];
   ASSERT_TRUE(running_on_worker(b));
   EXPECT_EQ(c.Delete(("/api/v1/trials/" + b).c_str())->status, 204);
   EXPECT_EQ(c.Get(("/api/v1/trials/" + b).c_str())->status, 404);

@@ -139,6 +139,12 @@ let trialId;
     if (haveShared) { await page.fill('#t0', '0.5'); await page.fill('#t1', '2.5'); }
     await page.click('#stage-options summary');
     await page.fill('#opt-capture-decimate', '2');  // no effect on a TRC trial, but kept in job.json
+    // The walk held by pelvis residuals, untuned (the stage's default tunes for minutes): what is checked is the page.
+    await page.check('#opt-gait-residuals');
+    await page.uncheck('#opt-gait-phase_reference');
+    await page.selectOption('#opt-gait-foot_spheres', '2');
+    await page.fill('#opt-gait-tune_evaluations', '0');
+    await page.fill('#opt-gait-speed_knobs', 'none');  // an empty list, not the default
     await page.click('#upload button[type=submit]');
     await page.waitForURL(/#\/trial\/[0-9a-f]{16}/);
     trialId = page.url().match(/trial\/([0-9a-f]{16})/)[1];
@@ -149,6 +155,9 @@ let trialId;
   await check('an option changed in the form reaches job.json, the others keep their defaults', async () => {
     const job = await (await page.request.get(`${base}/api/v1/trials/${trialId}/files/job.json`)).json();
     assert.equal(job.capture.decimate, 2);
+    assert.equal(job.gait.residuals, true);
+    assert.deepEqual(job.gait.speed_knobs, []);
+    assert.deepEqual(job.gait.tune_stop_at, [0.45]);  // untouched: the default
     assert.equal(job.so.activation_exponent, 2);
     assert.deepEqual(job.stages, ['ik', 'id', 'so', 'cmc', 'cpg', 'gait']);
     assert.equal(job.activation, 'so');
@@ -483,11 +492,15 @@ let trialId;
       await page.fill('#t0', '0.5');
       await page.fill('#t1', '2.5');
       await page.click('#stage-options summary');
-      // Without residuals, a few tuning simulations (short walks: what is checked is the page).
-      await page.uncheck('#opt-gait-residuals');
-      await page.check('#opt-gait-phase_reference');
+      // Without residuals (the default), a few tuning simulations in one round, no schedule (short
+      // walks: what is checked is the page).
       await page.fill('#opt-gait-tune_evaluations', '8');
       await page.fill('#opt-gait-tune_horizon_s', '3');
+      await page.fill('#opt-gait-tune_rounds', '1');
+      await page.fill('#opt-gait-tune_restarts', '0');
+      await page.fill('#opt-gait-tune_rotation_limit_deg', '0');
+      await page.fill('#opt-gait-tune_stop_at', 'none');
+      await page.fill('#opt-gait-schedule_evaluations', '0');
       await page.fill('#opt-gait-duration_s', '4');
       await page.fill('#opt-gait-speed_knobs', '0.8 1.2');
       await page.selectOption('#opt-gait-foot_spheres', '5');  // an integer choice: sent as a number

@@ -26,7 +26,8 @@ TEST(GaitGait10dof, TunedCpgWalksTenSecondsAtEverySpeedKnobAndStops) {
     REQUIRE_REFERENCE(d + f);
   const std::string dir = refdata::temp_dir("gait10dof_autonomous");
   std::ofstream(dir + "/options.json")
-      << R"({"gait": {"residuals": false, "phase_reference": true, "tune_evaluations": 600, "tune_horizon_s": 10, "tune_rounds": 2, "duration_s": 10}})";
+      << R"({"gait": {"residuals": false, "phase_reference": true, "tune_evaluations": 600, "tune_horizon_s": 10, "tune_rounds": 2, "duration_s": 10,
+             "foot_spheres": 2, "tune_restarts": 0, "tune_rotation_limit_deg": 0, "tune_stop_at": [], "speed_knobs": []}})";
   const refdata::CliRun run = refdata::run_cpgait("run --model " + d + "OutputReference/subject01.osim --markers " + d +
                                                   "ExperimentalData/subject01_walk.trc --grf " + d + "ExperimentalData/subject01_walk_grf.mot --loads " +
                                                   d + "ExperimentalData/subject01_walk_grf.xml --ik-tasks " + d + "IK/walk_Setup_IK.xml --options " +

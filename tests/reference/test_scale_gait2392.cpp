@@ -448,8 +448,9 @@ TEST(ScaleGait2392, PipelineFromTheGenericModelMatchesThePrescaledModelsRun) {
                s.pipeline + "OutputReference/subject01_simbody.osim"}))
     GTEST_SKIP() << "reference data absent: " << s.missing;
   const std::string dir = refdata::temp_dir("scale_pipeline");
+  std::ofstream(dir + "/options.json") << std::string(R"({"gait": )") + refdata::kResidualGaitOptions + "}";
   const std::string trial = " --markers " + walk + ".trc --grf " + walk + "_grf.mot --loads " + walk + "_grf.xml --ik-tasks " +
-                            s.pipeline + "subject01_Setup_IK.xml";
+                            s.pipeline + "subject01_Setup_IK.xml --options " + dir + "/options.json";
   const auto scaled = refdata::run_cpgait("run --generic-model " + s.generic + " --marker-set " + s.pipeline +
                                           "gait2392_Scale_MarkerSet.xml --static " + s.pipeline + "subject01_static.trc --scale-setup " +
                                           s.pipeline + "subject01_Setup_Scale.xml" + trial + " -o " + dir + "/generic");

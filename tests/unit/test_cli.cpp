@@ -345,7 +345,8 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const std::string model = cpgait::refdata::fixture("models/walker.osim");
   ASSERT_EQ(run("synth --model " + model + " --duration 4 -o " + dir + "/w.trc").status, 0);
   std::ofstream(dir + "/options.json")
-      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "speed_knobs": [0.8], "schedule_evaluations": 4}})";
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "speed_knobs": [0.8], "schedule_evaluations": 4,
+             "foot_spheres": 2}})";
   const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json gait = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_gait.json"));
@@ -433,7 +434,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_EQ(scheduled["controller"], tuned["controller"]);
   ASSERT_EQ(scheduled["controller_schedule"].size(), 1u);
   EXPECT_EQ(scheduled["controller_schedule"][0]["speed"].get<double>(), 0.8);
-  // Feet: the stage's two per foot are recorded with its controller; tuned on five, the controller
+  // Feet: the stage's two per foot (its option; the default is five) are recorded with its controller; tuned on five, the controller
   // records five, and a replay stands on five unless told otherwise.
   EXPECT_EQ(tuned["controller"]["foot_spheres"].get<int>(), 2);
   const CliRun five = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
@@ -462,7 +463,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   // The stage's ground steps, pushes and tolerances reach the tuner: each candidate's cost is the mean
   // over its walks, so the start's cost changes; a push needs three numbers, a tolerance is positive.
   std::ofstream(dir + "/perturbed.json")
-      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "tune_stop_at": [0.5], "control_interval_s": 0.001, "tolerance": 8e-3, "integrator": "rosenbrock", "tune_entrainment": true}})";
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "tune_stop_at": [0.5], "control_interval_s": 0.001, "tolerance": 8e-3, "integrator": "rosenbrock", "tune_entrainment": true, "speed_knobs": []}})";
   const CliRun perturbed = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/perturbed.json -o " + dir + "/perturbed");
   ASSERT_EQ(perturbed.status, 0) << perturbed.output;
   const nlohmann::json p = nlohmann::json::parse(cpgait::text::read_file(dir + "/perturbed/w_gait.json"));

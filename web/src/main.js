@@ -174,7 +174,9 @@ function optionInput(stage, key, field) {
   }
   if (field.type === 'string') return h('input', Object.assign({ type: 'text', placeholder: field.default ?? '' }, common));
   if (field.type === 'array' && field.items && field.items.type === 'number') {
-    return h('input', Object.assign({ type: 'text', placeholder: (field.default || []).join(' ') || 'none' }, common));
+    // Empty keeps the default; "none" sends an empty list (a default that is not empty can be turned off).
+    return h('input', Object.assign({ type: 'text', placeholder: (field.default || []).join(' ') || 'none' }, common,
+      { title: `${field.description} (empty: the default; "none": an empty list)` }));
   }
   return null;  // objects (IK task weights) come from files, not the form
 }
@@ -213,7 +215,7 @@ function changedOptions(form) {
     if (type === 'boolean') value = input.checked;
     else if (input.tagName === 'SELECT') value = asType(input.value);
     else if (input.value === '') continue;
-    else if (type === 'array') value = input.value.split(/[\s,]+/).filter((x) => x).map(Number);
+    else if (type === 'array') value = input.value.trim() === 'none' ? [] : input.value.split(/[\s,]+/).filter((x) => x).map(Number);
     else value = type === 'number' || type === 'integer' ? Number(input.value) : input.value;
     const dflt = input.tagName === 'SELECT' ? asType(input.querySelector('option[selected]')?.value) : type === 'boolean' ? input.defaultChecked : undefined;
     if (dflt !== undefined && value === dflt) continue;
