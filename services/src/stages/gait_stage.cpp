@@ -16,7 +16,7 @@ namespace {
 struct GaitStageOptions {
   std::optional<double> duration_s;
   // The defaults walk on their own (issue 22): tuned without residuals at knob 1, then a schedule
-  // entry at 0.8 and 1.2 (subject01: 6.4 min on 2 cores, every knob 10 s; docs/gait-tuning.md).
+  // entry at 0.8 and 1.2. What they give on subject01 over seeds: docs/gait-tuning.md.
   bool residuals = false;
   bool phase_reference = true;
   int tune_evaluations = 600;
