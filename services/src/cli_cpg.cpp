@@ -270,6 +270,11 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
                    "a round's share of --tune (on top of it), until a walk lasts the horizon")
       ->check(CLI::Range(0, 10))
       ->capture_default_str();
+  gait->add_option("--tune-budget-simulated", g->tuning.restart_budget_s,
+                   "simulated s: a restart begins only while the tuning's simulations so far plus the last round's again stay within "
+                   "this (0: no bound)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
   gait->add_option("--tune-step-decay", g->tuning.step_decay,
                    "each tuning round's and restart's initial step is the last's times this, e.g. 0.55: 0.5, 0.28, 0.15 over three rounds")
       ->check(CLI::Range(0.01, 1.0))

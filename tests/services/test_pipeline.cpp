@@ -11,6 +11,7 @@
 #include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/fixtures/synthetic_trial.h"
+#include "cpgait/progress.h"
 #include "json_schema_check.h"
 #include "pipeline.h"
 #include "stages/products.h"
@@ -210,6 +211,31 @@ TrialInputs walker_trial(const std::string& dir) {
 
 }  // namespace
 
+// A stage of several long steps (the gait stage's tunings at each knob, then its walks) reports each
+// as a share of its own progress, so the stage's rises through all of them; cancelling reaches each.
+TEST(PipelineStages, AStepsProgressIsItsShareOfTheStages) {
+  struct Recording : cpgait::Progress {
+    std::vector<double> fractions;
+    bool cancel = false;
+    void report(double fraction, std::string_view) override { fractions.push_back(fraction); }
+    bool cancelled() const override { return cancel; }
+  } stage;
+  cpgait::ProgressShare first(&stage, 0.0, 0.6), second(&stage, 0.6, 0.95);
+  first.report(0.5, "tuning");
+  first.report(1.0, "tuning");
+  second.report(0.5, "tuning");
+  ASSERT_EQ(stage.fractions.size(), 3u);
+  EXPECT_DOUBLE_EQ(stage.fractions[0], 0.3);
+  EXPECT_DOUBLE_EQ(stage.fractions[1], 0.6);
+  EXPECT_DOUBLE_EQ(stage.fractions[2], 0.775);
+  EXPECT_FALSE(second.cancelled());
+  stage.cancel = true;
+  EXPECT_TRUE(second.cancelled());
+  cpgait::ProgressShare orphan(nullptr, 0.0, 1.0);
+  orphan.report(0.5, "nobody listens");
+  EXPECT_FALSE(orphan.cancelled());
+}
+
 TEST(PipelineStages, ATestStageIsItsOwnFileAndOneTableLine) {
   static const EchoStage echo;
   StageTable table = pipeline_stages();
@@ -292,7 +318,7 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
                                        {"gait", "check_tolerances"}, {"gait", "foot_spheres"}, {"gait", "tolerance"},
                                        {"gait", "control_interval_s"}, {"gait", "tune_entrainment"}, {"gait", "integrator"},
                                        {"gait", "tune_stop_at"}, {"gait", "tune_population"}, {"gait", "tune_restarts"}, {"gait", "tune_seed"},
-                                       {"gait", "schedule_step_decay"}}) {
+                                       {"gait", "schedule_step_decay"}, {"gait", "tune_budget_simulated_s"}}) {
     EXPECT_EQ(written_doc[section][field], PipelineOptions().to_json()[section][field]) << section << "." << field;
     written_doc[section].erase(field);
   }

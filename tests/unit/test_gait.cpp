@@ -672,6 +672,36 @@ TEST(GaitTuning, StopTrialsCountTheirFallsAlone) {
   }
 }
 
+// A walk -> stand trial is its level walk step for step until the stop: where the level walk fell
+// before the stop, the trial falls at the same step (checked by simulating both) and the tuner does
+// not simulate it again. The still walker counted as fallen once its pelvis sags 0.01 %: every
+// candidate falls before a stop at 0.9 of the horizon, so the stop trials add their falls to the cost
+// and nothing to the simulated time; a stop before the fall is simulated.
+TEST(GaitTuning, AStopTrialIsNotSimulatedWhereItsLevelWalkFellBeforeTheStop) {
+  QuickTuning q(4);
+  q.o.fall_height_fraction = 0.9999;
+  ReproducedGaitOptions walk = q.o, stop = q.o;
+  walk.duration_s = stop.duration_s = q.t.horizon_s;
+  stop.stop_time_s = 0.9 * q.t.horizon_s;
+  const double fell_s = reproduce_gait(q.w.m, q.w.cpg, q.w.reference, q.w.feet, walk).fell_at_s;
+  ASSERT_GE(fell_s, 0.0);
+  ASSERT_LT(fell_s, stop.stop_time_s);
+  EXPECT_EQ(reproduce_gait(q.w.m, q.w.cpg, q.w.reference, q.w.feet, stop).fell_at_s, fell_s);
+  const GaitTuningSummary level = q.tune(q.t).summary;
+  ASSERT_LT(level.walked_s, 0.9 * q.t.horizon_s);
+  GaitTuningOptions stopping = q.t;
+  stopping.stop_at = {0.9};
+  const GaitTuningSummary stopped = q.tune(stopping).summary;
+  std::printf("[info] the walk alone: %s\n[info] with the stop trials: %s\n", level.BriefReport().c_str(), stopped.BriefReport().c_str());
+  EXPECT_EQ(stopped.evaluations, level.evaluations);
+  EXPECT_EQ(stopped.simulated_s, level.simulated_s);
+  EXPECT_EQ(stopped.start_walked_s, level.start_walked_s);
+  const double start_fall_cost = q.t.fall_weight * (q.t.horizon_s - level.start_walked_s) / q.t.horizon_s;
+  EXPECT_NEAR(stopped.start_cost, 0.5 * (level.start_cost + start_fall_cost), 1e-12);
+  stopping.stop_at = {0.5 * level.start_walked_s / q.t.horizon_s};
+  EXPECT_GT(q.tune(stopping).summary.simulated_s, level.simulated_s);
+}
+
 // The tuned controller records the feet it walked on; a speed knob's entry is tuned on the
 // controller's feet only, and a count that is no feet is refused.
 TEST(GaitTuning, TheControllerRecordsItsFeet) {
@@ -850,6 +880,42 @@ TEST(GaitTuning, RestartsRunWhileTheWalkFallsAndAWalkingStartCanBeKept) {
     level.step_decay = decay;
     EXPECT_THROW(q.tune(level), std::invalid_argument) << decay;
   }
+}
+
+// The restarts' budget is simulated time: the tuning counts what its simulations simulated (the kept
+// start alone: one 0.3 s walk), and a restart begins only while the time spent so far, before this
+// tuning too, plus the last round's again stays within the budget. Spent before up to a budget, the
+// pushed walker's restarts are left out and the result is the round's, to the bit; a budget of
+// 0 bounds nothing.
+TEST(GaitTuning, RestartsBeginOnlyWithinTheSimulatedTimeBudget) {
+  const QuickTuning q(6);
+  GaitTuningOptions t = q.t;
+  t.population = 3;
+  t.keep_walking_start_stride = 1.0;
+  EXPECT_NEAR(q.tune(t).summary.simulated_s, t.horizon_s, 1e-9);
+  t.keep_walking_start_stride = 0;
+  t.pushes_N_s = {Eigen::Vector3d(0, -100, 0)};
+  const GaitTuningResult round = q.tune(t);
+  t.restarts = 2;
+  const GaitTuningSummary unbounded = q.tune(t).summary;
+  EXPECT_EQ(unbounded.restarts, 2);
+  EXPECT_EQ(unbounded.restarts_skipped, 0);
+  EXPECT_GT(unbounded.simulated_s, round.summary.simulated_s);
+  // Two walks (level and pushed) per simulation, none longer than the horizon.
+  EXPECT_LE(unbounded.simulated_s, 2 * unbounded.evaluations * t.horizon_s + 1e-9);
+  t.restart_budget_s = 100;
+  t.spent_before_s = 100 - round.summary.simulated_s;
+  const GaitTuningResult bounded = q.tune(t);
+  std::printf("[info] the round simulated %.2f s, with two restarts %.2f s; bounded: %s\n", round.summary.simulated_s,
+              unbounded.simulated_s, bounded.summary.BriefReport().c_str());
+  EXPECT_EQ(bounded.summary.restarts, 0);
+  EXPECT_EQ(bounded.summary.restarts_skipped, 2);
+  EXPECT_EQ(bounded.summary.evaluations, round.summary.evaluations);
+  EXPECT_EQ(bounded.summary.simulated_s, round.summary.simulated_s);
+  EXPECT_EQ(bounded.cpg.controller->reflex_kp, round.cpg.controller->reflex_kp);
+  EXPECT_EQ(bounded.cpg.controller->trunk_kp, round.cpg.controller->trunk_kp);
+  t.restart_budget_s = -1;
+  EXPECT_THROW(q.tune(t), std::invalid_argument);
 }
 
 // The entrainment share is searched only when asked: from a controller's 0.5 it stays 0.5 without

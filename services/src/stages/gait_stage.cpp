@@ -6,6 +6,7 @@
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/gait/tune_gait_controller.h"
+#include "cpgait/progress.h"
 #include "products.h"
 #include "stage.h"
 #include "output_files.h"
@@ -24,6 +25,7 @@ struct GaitStageOptions {
   int tune_rounds = 3;
   int tune_population = 0;
   int tune_restarts = 3;
+  double tune_budget_simulated_s = 0;
   int tune_seed = 1;
   double tune_rotation_limit_deg = 4.5;
   bool tune_entrainment = false;
@@ -78,6 +80,11 @@ struct GaitStageOptions {
                      "tuning: when a tuning's result falls before tune_horizon_s, CMA-ES again over the whole horizon, up to this many "
                      "times, each from the best so far with a round's share of the simulations (on top of the budget), until a walk "
                      "lasts the horizon (0: none)")
+            .number("tune_budget_simulated_s", &GaitStageOptions::tune_budget_simulated_s, "s",
+                    "tuning: a restart (tune_restarts) begins only while the simulated time all of the stage's tunings spent so far "
+                    "plus the last round's again stays within this; simulated time, so the same inputs give the same search on any "
+                    "machine (0: no bound; the summary's tuning reports each tuning's simulated_s)",
+                    NumberRange{0.0, 1e6})
             .integer("tune_seed", &GaitStageOptions::tune_seed, 1, 1000000,
                      "tuning: CMA-ES' random seed in every tuning of the stage (each round and restart adds its index): another "
                      "seed, another search, when a tuned walk falls")
@@ -194,6 +201,10 @@ nlohmann::json walk_at_tolerances(const Model& model, const CpgModel& cpg, const
   return runs;
 }
 
+// The stage's progress: the tunings take this share, each by its simulations (its restarts within
+// it), the walks after them the rest.
+constexpr double kTuningProgressShare = 0.95;
+
 // The stage's tuning: the controller at knob 1, then (schedule_evaluations) a schedule entry at each
 // speed knob; the tuned CPG to _cpg_tuned.json. Returns the summary's "tuning".
 nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel& driving, const Storage& reference, const ContactSet& feet,
@@ -204,6 +215,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.rounds = o.tune_rounds;
   to.population = o.tune_population;
   to.restarts = o.tune_restarts;
+  to.restart_budget_s = o.tune_budget_simulated_s;
   to.seed = static_cast<unsigned long long>(o.tune_seed);
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.tune_entrainment = o.tune_entrainment;
@@ -213,22 +225,41 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.stop_at = o.tune_stop_at;
   to.set_pushes(o.tune_pushes_N_s);  // the option's reader refused lists that are not triples
   to.integrator_tolerances = o.tune_tolerances;
-  const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, trial.progress);
+  // The speed knobs' tunings: each from the schedule so far, refining it.
+  GaitTuningOptions schedule_to = to;
+  schedule_to.evaluations = o.schedule_evaluations;
+  schedule_to.step_decay = o.schedule_step_decay;
+  schedule_to.keep_walking_start_stride = 0.05;  // issue 22's stride target: at 1.2 subject01's search cost 340 s where its start walked
+  const std::vector<double> knobs = o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{};
+  const double most_simulations = to.most_simulations() + static_cast<double>(schedule_to.most_simulations()) * static_cast<double>(knobs.size());
+  double progress_begin = 0;
+  auto progress_share = [&](const GaitTuningOptions& tuning) {
+    const double end = progress_begin + kTuningProgressShare * tuning.most_simulations() / most_simulations;
+    ProgressShare share(trial.progress, progress_begin, end);
+    progress_begin = end;
+    return share;
+  };
+  ProgressShare knob_1_progress = progress_share(to);
+  const GaitTuningResult tuned = tune_gait_controller(model, driving, reference, feet, go, to, &knob_1_progress);
   driving = tuned.cpg;
-  nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"seconds", tuned.summary.seconds},
+  double spent_s = tuned.summary.simulated_s;
+  nlohmann::json tuning = {{"simulations", tuned.summary.evaluations}, {"simulated_s", tuned.summary.simulated_s},
+                           {"budget_simulated_s", o.tune_budget_simulated_s}, {"restarts_skipped", tuned.summary.restarts_skipped},
+                           {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
                            {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
-  to.evaluations = o.schedule_evaluations;
-  to.step_decay = o.schedule_step_decay;
-  to.keep_walking_start_stride = 0.05;  // issue 22's stride target: at 1.2 subject01's search cost 340 s where its start walked
-  for (double knob : o.schedule_evaluations > 0 ? o.speed_knobs : std::vector<double>{}) {
+  for (double knob : knobs) {
     ReproducedGaitOptions at = go;
     at.speed = knob;
-    const GaitTuningResult k = tune_gait_controller(model, driving, reference, feet, at, to, trial.progress);
+    schedule_to.spent_before_s = spent_s;
+    ProgressShare knob_progress = progress_share(schedule_to);
+    const GaitTuningResult k = tune_gait_controller(model, driving, reference, feet, at, schedule_to, &knob_progress);
     driving = k.cpg;
-    tuning["schedule"].push_back({{"speed_knob", knob}, {"simulations", k.summary.evaluations}, {"seconds", k.summary.seconds},
+    spent_s += k.summary.simulated_s;
+    tuning["schedule"].push_back({{"speed_knob", knob}, {"simulations", k.summary.evaluations}, {"simulated_s", k.summary.simulated_s},
+                                  {"restarts_skipped", k.summary.restarts_skipped}, {"seconds", k.summary.seconds},
                                   {"walked_s", {k.summary.start_walked_s, k.summary.walked_s}}, {"restarts", k.summary.restarts}, {"step_decay", o.schedule_step_decay},
                                   {"kept_start", k.summary.kept_start}});
   }
@@ -287,7 +318,8 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     // Walking on its own, as long as the trial and at least 10 s (issue 22); held by residuals, which
     // need the trial's pelvis, what the trial has.
     if (!o.duration_s && !go.pelvis_residuals) go.duration_s = std::max(10.0, available);
-    const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, go, trial.progress);
+    ProgressShare walk_progress(trial.progress, tuning.is_null() ? 0.0 : kTuningProgressShare, 1.0);
+    const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, go, &walk_progress);
     trial.write(reproduced_gait_motion_table(model, g), "_gait.mot");
     trial.write(reproduced_gait_residual_table(g), "_gait_residuals.sto");
     trial.write(reproduced_gait_contact_table(g), "_gait_contact_forces.sto");

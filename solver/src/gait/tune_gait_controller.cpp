@@ -85,11 +85,14 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   if (!(t.initial_step > 0)) throw std::invalid_argument("tune_gait_controller: the initial step must be positive");
   if (!(t.step_decay > 0 && t.step_decay <= 1)) throw std::invalid_argument("tune_gait_controller: the step decay lies in (0, 1]");
   if (t.restarts < 0) throw std::invalid_argument("tune_gait_controller: restarts must not be negative");
+  if (!(t.restart_budget_s >= 0 && t.spent_before_s >= 0))
+    throw std::invalid_argument("tune_gait_controller: the restarts' budget and the time spent before must not be negative");
   std::vector<int> rotations;
   for (int c = 0; c < model.num_coordinates(); ++c)
     if (model.coordinates[c].is_angle()) rotations.push_back(c);
   std::atomic<int> done{0};
   std::mutex progress_mutex;
+  double simulated_s = 0;  // over every simulation so far, under progress_mutex
   // A single knob's tuning starts from the CPG's schedule there (scheduled_at_speed).
   const double knob = base.speed * (t.speeds.size() == 1 ? t.speeds.front() : 1.0);
   // Tuned at a single knob other than the CPG controller's: the result is the schedule's entry there.
@@ -115,6 +118,10 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     bool same_ground_and_knob(const Walk& o) const {
       return speed == o.speed && step_m == o.step_m && push_N_s == o.push_N_s && step_at == o.step_at && stop_at == o.stop_at;
     }
+    // The level walk a walk -> stand trial runs as, step for step, until its stop.
+    bool is_level_walk_of(const Walk& stop) const {
+      return stop_at < 0 && speed == stop.speed && step_m == 0 && push_N_s.isZero() && tolerance == stop.tolerance;
+    }
   };
   std::vector<double> tolerances = t.integrator_tolerances;
   if (tolerances.empty()) tolerances.push_back(base.integrator_tolerance);
@@ -139,9 +146,24 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   // errors (the inputs') propagate; a candidate's score as falling at once.
   auto score = [&](const Candidate& k, double* walked, bool rethrow, double* worst_stride_error = nullptr) {
     double cost = 0, time_walked = horizon_s, worst_stride = 0;
-    double cost_here = 0, walked_here = horizon_s;
+    double cost_here = 0, walked_here = horizon_s, simulated_here = 0;
+    std::vector<double> fell_at_s(walks.size(), -1);  // each walk simulated so far: where it fell (< 0: it did not)
     for (std::size_t i = 0; i < walks.size(); ++i) {
       const Walk& w = walks[i];
+      // A walk -> stand trial is its level walk until the stop: where that one fell before the stop,
+      // this one falls at the same step, and is not simulated again.
+      if (w.stop_at >= 0) {
+        double level_fell_at_s = -1;
+        for (std::size_t j = 0; j < i; ++j)
+          if (walks[j].is_level_walk_of(w) && fell_at_s[j] >= 0) level_fell_at_s = fell_at_s[j];
+        if (level_fell_at_s >= 0 && level_fell_at_s < w.stop_at * horizon_s - 1e-9) {
+          walked_here = level_fell_at_s;
+          cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s;
+          cost += cost_here / static_cast<double>(walks.size());
+          time_walked = std::min(time_walked, walked_here);
+          continue;
+        }
+      }
       // A walk that fell is not taken again at the next tolerance: it counts as falling there alike.
       // The tolerances are there to expose walks that stand by one tolerance's integration error; a
       // fall needs no second look, and the many falling candidates of a search walk once.
@@ -160,6 +182,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       cost_here = t.fall_weight, walked_here = 0;
       try {
         const ReproducedGaitResult g = reproduce_gait(model, working, reference, contacts, o);
+        if (!g.time_s.empty()) simulated_here += g.time_s.back();
+        fell_at_s[i] = g.fell_at_s;
         walked_here = g.fell_at_s < 0 ? horizon_s : g.fell_at_s;
         cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s;
         if (w.stop_at < 0) {  // a walk: also how it tracks the trial's cycle, its effort and its stride
@@ -185,8 +209,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     if (worst_stride_error) *worst_stride_error = worst_stride;
     const int n = ++done;
     std::lock_guard<std::mutex> lock(progress_mutex);
+    simulated_s += simulated_here;
     if (cost < best_cost) best_cost = cost, best_walked = time_walked;
-    if (progress) progress->report(std::min(1.0, static_cast<double>(n) / (t.evaluations + t.rounds + 1)), "tuning the gait controller");
+    if (progress) progress->report(std::min(1.0, static_cast<double>(n) / t.most_simulations()), "tuning the gait controller");
     return cost;
   };
   GaitTuningResult result;
@@ -202,9 +227,15 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   // each a CMA-ES search from the best so far with the next seed, its initial step the last's times
   // step_decay, whose best replaces it when better.
   double step = t.initial_step;
+  double last_round_s = 0;  // the simulated time of the last round or restart
   for (int round = 0; round < t.rounds + t.restarts && !result.summary.kept_start; ++round, step *= t.step_decay) {
     const bool restart = round >= t.rounds;
     if (restart && walked >= t.horizon_s) break;
+    if (restart && t.restart_budget_s > 0 && t.spent_before_s + simulated_s + last_round_s > t.restart_budget_s) {
+      result.summary.restarts_skipped = t.rounds + t.restarts - round;
+      break;
+    }
+    const double round_begin_s = simulated_s;
     const double last_horizon_s = horizon_s;
     horizon_s = t.horizon_s * std::min(round + 1, t.rounds) / t.rounds;
     const CpgController from = *working.controller;
@@ -229,6 +260,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       cost = s.best_value, walked = best_walked;
     }
     result.summary.restarts += restart;
+    last_round_s = simulated_s - round_begin_s;
   }
   // Over the whole horizon the start may still score better than the rounds' result.
   if (cost > result.summary.start_cost) {
@@ -249,17 +281,19 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     schedule.push_back({*working.controller, working.amplitude});
   }
   result.summary.evaluations = done.load();
+  result.summary.simulated_s = simulated_s;
   result.summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }
 
 std::string GaitTuningSummary::BriefReport() const {
   char buf[320];
-  std::snprintf(buf, sizeof buf, "gait tuning: %d simulations in %.1f s; cost %.3f -> %.3f; walked %.2f s -> %.2f s before falling (or the horizon)",
-                evaluations, seconds, start_cost, cost, start_walked_s, walked_s);
+  std::snprintf(buf, sizeof buf, "gait tuning: %d simulations (%.0f s simulated) in %.1f s; cost %.3f -> %.3f; walked %.2f s -> %.2f s before falling (or the horizon)",
+                evaluations, simulated_s, seconds, start_cost, cost, start_walked_s, walked_s);
   std::string report = buf;
   if (kept_start) report += "; the start walked and was kept";
   if (restarts > 0) report += "; " + std::to_string(restarts) + " restart(s)";
+  if (restarts_skipped > 0) report += "; " + std::to_string(restarts_skipped) + " restart(s) left out by the budget";
   return report;
 }
 

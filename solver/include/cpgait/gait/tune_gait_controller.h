@@ -15,6 +15,7 @@
 // other than the CPG's controller's, it starts from the CPG's schedule at that knob and is stored as
 // the schedule's entry there (CpgModel::speed_schedule), the controller left as it was.
 #include <Eigen/Core>
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -53,7 +54,8 @@ struct GaitTuningOptions {
   // stops at its stop phase after each of these fractions of the horizon (ReproducedGaitOptions::
   // stop_time_s). Only their falls count (time walked before falling, as the others'): a stand has no
   // gait cycle to track or stride to time (default: none). Tuned without, a controller that walks may
-  // fall once stopped (measured: test_so_gait2392.cpp).
+  // fall once stopped (measured: test_so_gait2392.cpp). A trial whose level walk (at the same knob
+  // and tolerance) fell before the stop is not simulated: it is that walk until the stop.
   std::vector<double> stop_at;
   // Integrator tolerances (ReproducedGaitOptions::integrator_tolerance) every walk above is taken at,
   // each one more simulation, counted as the speeds' are (default: none, the gait options' own alone);
@@ -87,6 +89,12 @@ struct GaitTuningOptions {
   // many times, each from the best so far with the next seed and a round's share of the evaluations
   // (on top of `evaluations`), until a walk lasts the horizon (default 0: none).
   int restarts = 0;
+  // A restart begins only while the simulated time spent so far (this tuning's plus spent_before_s)
+  // and the last round's or restart's again would stay within this (simulated s; default 0: no
+  // bound). Simulated time, not wall time, so that a search is the same on any machine; it bounds
+  // the wall time where the simulations' speed is known (measured: docs/gait-tuning.md).
+  double restart_budget_s = 0;
+  double spent_before_s = 0;  // simulated s spent before this tuning, counted against restart_budget_s
   // Each round's (and restart's) initial step is the last's times this (default 1: initial_step for
   // all): later rounds, from a walker of a shorter horizon, refine it. Measured: docs/gait-tuning.md.
   double step_decay = 1.0;
@@ -94,6 +102,9 @@ struct GaitTuningOptions {
   // within this fraction of cycle / speed (default 0: always search; the gait stage's speed knobs: 0.05).
   double keep_walking_start_stride = 0;
   int num_threads = 0;          // simulations in parallel; 0: every core
+  // The most simulations the tuning may run: the start's, each round's start over its horizon, the
+  // rounds' and every restart's (its progress is reported against it).
+  int most_simulations() const { return evaluations + restarts * (evaluations / std::max(1, rounds)) + rounds + 1; }
   unsigned long long seed = 1;
 };
 
@@ -105,6 +116,8 @@ struct GaitTuningSummary {
   // that fell is not taken at the next tolerances, where it may fall sooner.
   double start_walked_s = 0, walked_s = 0;
   int restarts = 0;            // CMA-ES' restarts run (GaitTuningOptions::restarts)
+  int restarts_skipped = 0;    // restarts the budget left out (GaitTuningOptions::restart_budget_s)
+  double simulated_s = 0;      // simulated time over all of its simulations
   bool kept_start = false;     // the start walked and was kept unsearched (keep_walking_start_stride)
   std::string BriefReport() const;
 };
