@@ -333,6 +333,14 @@ struct StillWalker {
   }
 };
 
+// A reference that moves: the still walker's right hip swings 0.3 +- 0.2 rad once a CPG cycle.
+Storage swinging_reference(const StillWalker& w) {
+  Eigen::MatrixXd q = w.m.default_coordinates().transpose().replicate(static_cast<Eigen::Index>(w.t.size()), 1);
+  const int hip = w.m.coordinate_index("hip_flexion_r");
+  for (std::size_t i = 0; i < w.t.size(); ++i) q(static_cast<Eigen::Index>(i), hip) = 0.3 + 0.2 * std::sin(2 * M_PI * w.t[i] / w.cpg.cycle_s);
+  return make_storage("swing", coordinate_names(w.m), w.t, q, false);
+}
+
 }  // namespace
 
 namespace {
@@ -492,11 +500,8 @@ TEST(ContactSet, StepEdgeRidesOnTheBelt) {
 TEST(ReproducedGait, StopTurnsTheWalkToTheStandingPose) {
   StillWalker w;
   const int nq = w.m.num_coordinates();
-  // A reference that moves: the hip swings once a CPG cycle.
-  Eigen::MatrixXd q = w.m.default_coordinates().transpose().replicate(static_cast<Eigen::Index>(w.t.size()), 1);
   const int hip = w.m.coordinate_index("hip_flexion_r");
-  for (std::size_t i = 0; i < w.t.size(); ++i) q(static_cast<Eigen::Index>(i), hip) = 0.3 + 0.2 * std::sin(2 * M_PI * w.t[i] / w.cpg.cycle_s);
-  const Storage reference = make_storage("swing", coordinate_names(w.m), w.t, q, false);
+  const Storage reference = swinging_reference(w);
   ReproducedGaitOptions o;
   o.start_time_s = 0.5;
   o.begin_time_s = 0.5;
@@ -574,6 +579,69 @@ TEST(ReproducedGait, StandingRaisesTheReflexGains) {
   EXPECT_EQ(soft.q.topRows(frozen + 1), firm.q.topRows(frozen + 1));
   EXPECT_EQ(soft.excitations.topRows(frozen + 1), firm.excitations.topRows(frozen + 1));
   EXPECT_GT((soft.excitations.bottomRows(soft.q.rows() - frozen - 10) - firm.excitations.bottomRows(soft.q.rows() - frozen - 10)).cwiseAbs().maxCoeff(), 1e-3);
+}
+
+// A walk resumed from a checkpoint is the walk from the beginning, to the bit: the still walker on a
+// swinging reference, entrained by its touchdowns and phase-indexed, keeps its state at 0.201 s (the
+// interval from 0.2025 s on); a walk -> stand trial stopping there, resumed from it, is the trial taken whole (motion, targets,
+// excitations, contact, the freeze, the entrainment's resets, the integrator's steps). Keeping the
+// state changes nothing of the walk. A checkpoint after a stop, a resumed walk stopped or pushed
+// before the checkpoint, and another control interval's checkpoint are refused.
+TEST(ReproducedGait, AWalkResumedFromACheckpointIsTheWalkFromTheBeginning) {
+  StillWalker w;
+  const Storage reference = swinging_reference(w);
+  ReproducedGaitOptions level;
+  level.start_time_s = 0.5;
+  level.begin_time_s = 0.5;
+  level.duration_s = 0.6;
+  level.phase_indexed_reference = true;
+  level.entrainment.share = 1;
+  level.stand_blend_s = 0.1;
+  level.fall_height_fraction = -1e9;
+  ReproducedGaitOptions stop = level;
+  stop.stop_time_s = level.checkpoint_at_s = 0.201;
+  const ReproducedGaitResult plain = reproduce_gait(w.m, w.cpg, reference, w.feet, [&] {
+    ReproducedGaitOptions o = level;
+    o.checkpoint_at_s = -1;
+    return o;
+  }());
+  const ReproducedGaitResult kept = reproduce_gait(w.m, w.cpg, reference, w.feet, level);
+  EXPECT_EQ(plain.checkpoint, nullptr);
+  ASSERT_NE(kept.checkpoint, nullptr);
+  EXPECT_NEAR(kept.checkpoint->time_s, 0.2025, 1e-12);
+  EXPECT_EQ(kept.q, plain.q);
+  EXPECT_EQ(kept.excitations, plain.excitations);
+  const ReproducedGaitResult whole = reproduce_gait(w.m, w.cpg, reference, w.feet, stop);
+  const ReproducedGaitResult resumed = reproduce_gait(w.m, w.cpg, reference, w.feet, stop, nullptr, kept.checkpoint.get());
+  ASSERT_GE(whole.entrainment_resets, 1) << "no touchdown: the entrainment's state is not exercised";
+  ASSERT_GT(whole.frozen_at_s, 0.2025);
+  EXPECT_EQ(whole.resumed_at_s, 0.0);
+  EXPECT_NEAR(resumed.resumed_at_s, 0.2025, 1e-12);
+  EXPECT_EQ(resumed.time_s, whole.time_s);
+  EXPECT_EQ(resumed.q, whole.q);
+  EXPECT_EQ(resumed.q_reference, whole.q_reference);
+  EXPECT_EQ(resumed.excitations, whole.excitations);
+  EXPECT_EQ(resumed.contact_force_N, whole.contact_force_N);
+  EXPECT_EQ(resumed.frozen_at_s, whole.frozen_at_s);
+  EXPECT_EQ(resumed.stopped_at_s, whole.stopped_at_s);
+  EXPECT_EQ(resumed.stood_s, whole.stood_s);
+  EXPECT_EQ(resumed.fell_at_s, whole.fell_at_s);
+  EXPECT_EQ(resumed.entrainment_resets, whole.entrainment_resets);
+  EXPECT_EQ(resumed.integrator_steps, whole.integrator_steps);
+  std::printf("[info] froze at %.4f s, %d resets, %ld integrator steps; resumed at %.2f s\n", whole.frozen_at_s,
+              whole.entrainment_resets, whole.integrator_steps, resumed.resumed_at_s);
+  ReproducedGaitOptions bad = stop;
+  bad.checkpoint_at_s = 0.205;
+  EXPECT_THROW(reproduce_gait(w.m, w.cpg, reference, w.feet, bad), std::invalid_argument);
+  bad = stop;
+  bad.stop_time_s = 0.2;
+  EXPECT_THROW(reproduce_gait(w.m, w.cpg, reference, w.feet, bad, nullptr, kept.checkpoint.get()), std::invalid_argument);
+  bad = level;
+  bad.push_time_s = 0.2;
+  EXPECT_THROW(reproduce_gait(w.m, w.cpg, reference, w.feet, bad, nullptr, kept.checkpoint.get()), std::invalid_argument);
+  bad = level;
+  bad.control_interval_s = 0.005;
+  EXPECT_THROW(reproduce_gait(w.m, w.cpg, reference, w.feet, bad, nullptr, kept.checkpoint.get()), std::invalid_argument);
 }
 
 // Entrainment by phase resetting in the walk: the still walker, dropped 2 cm onto the ground (its
@@ -655,17 +723,22 @@ TEST(GaitTuning, GroundStepsAndTheRotationBoundEnterTheCost) {
 
 // A walk -> stand trial counts its fall alone: the still walker, which stands through 0.3 s, adds
 // nothing to the cost but its share of the mean (a stand's tracking, effort or stride would add).
-// A stop outside the horizon is refused.
+// The trial goes on from its level walk's state at the stop: every candidate walks the horizon, so
+// each simulates the horizon and the 0.7 of it after the stop. A stop outside the horizon is refused.
 TEST(GaitTuning, StopTrialsCountTheirFallsAlone) {
   const QuickTuning q(2);
   const GaitTuningResult level = q.tune(q.t);
   ASSERT_EQ(level.summary.start_walked_s, q.t.horizon_s);
+  ASSERT_EQ(level.summary.walked_s, q.t.horizon_s);
   ASSERT_GT(level.summary.start_cost, 0.0);
   GaitTuningOptions stopping = q.t;
   stopping.stop_at = {0.3};
   const GaitTuningResult stopped = q.tune(stopping);
   EXPECT_EQ(stopped.summary.start_walked_s, q.t.horizon_s);
   EXPECT_NEAR(stopped.summary.start_cost, 0.5 * level.summary.start_cost, 1e-12);
+  std::printf("[info] the walk alone: %s\n[info] with the stop trials: %s\n", level.summary.BriefReport().c_str(), stopped.summary.BriefReport().c_str());
+  ASSERT_EQ(stopped.summary.evaluations, level.summary.evaluations);
+  EXPECT_NEAR(stopped.summary.simulated_s, 1.7 * level.summary.simulated_s, 1e-9);
   for (double bad : {0.0, 1.0}) {
     stopping.stop_at = {bad};
     EXPECT_THROW(q.tune(stopping), std::invalid_argument) << bad;

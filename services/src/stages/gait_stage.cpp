@@ -150,16 +150,27 @@ nlohmann::json walk_outcome(const ReproducedGaitResult& g) {
           {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)}};
 }
 
+// The stage's walks after its tunings, each an equal part of the progress left.
+struct WalksProgress {
+  Progress* stage;
+  double begin, each;
+  ProgressShare next() {
+    begin += each;
+    return ProgressShare(stage, begin - each, begin);
+  }
+};
+
 // The CPG's walks at other speed knobs, with the same options otherwise: each one's motion to
 // _gait_speed_<knob>.mot, its strides and falls (the stride against the CPG's cycle / knob) returned.
 nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& feet,
-                                   const ReproducedGaitOptions& options, const std::vector<double>& knobs) {
+                                   const ReproducedGaitOptions& options, const std::vector<double>& knobs, WalksProgress& progress) {
   nlohmann::json runs = nlohmann::json::array();
   for (double knob : knobs) {
     const CpgModel driving = scheduled_at_speed(cpg, knob);
     ReproducedGaitOptions o = driving.controller ? with_controller(*driving.controller, options) : options;
     o.speed = knob;
-    const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, o);
+    ProgressShare walk_progress = progress.next();
+    const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, o, &walk_progress);
     const std::string file = "_gait_speed_" + number_text(knob) + ".mot";
     trial.write(reproduced_gait_motion_table(model, g), file);
     nlohmann::json run = walk_outcome(g);
@@ -179,13 +190,14 @@ nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, cons
 // and any of these did.
 nlohmann::json walk_at_tolerances(const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& feet,
                                   const ReproducedGaitOptions& options, bool walked, const std::vector<double>& tolerances,
-                                  nlohmann::json& summary) {
+                                  nlohmann::json& summary, WalksProgress& progress) {
   nlohmann::json runs = nlohmann::json::array();
   std::vector<std::string> fell;
   for (double tolerance : tolerances) {
     ReproducedGaitOptions o = options;
     o.integrator_tolerance = tolerance;
-    const ReproducedGaitResult g = reproduce_gait(model, cpg, reference, feet, o);
+    ProgressShare walk_progress = progress.next();
+    const ReproducedGaitResult g = reproduce_gait(model, cpg, reference, feet, o, &walk_progress);
     nlohmann::json run = walk_outcome(g);
     run["tolerance"] = tolerance;
     runs.push_back(run);
@@ -318,7 +330,12 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     // Walking on its own, as long as the trial and at least 10 s (issue 22); held by residuals, which
     // need the trial's pelvis, what the trial has.
     if (!o.duration_s && !go.pelvis_residuals) go.duration_s = std::max(10.0, available);
-    ProgressShare walk_progress(trial.progress, tuning.is_null() ? 0.0 : kTuningProgressShare, 1.0);
+    // The walks: this one, then the tolerance check's and the speed knobs'.
+    const bool check = !go.pelvis_residuals && !o.check_tolerances.empty();
+    const double walks = 1.0 + (check ? static_cast<double>(o.check_tolerances.size()) : 0.0) + static_cast<double>(o.speed_knobs.size());
+    const double walks_begin = tuning.is_null() ? 0.0 : kTuningProgressShare;
+    WalksProgress walks_progress{trial.progress, walks_begin, (1.0 - walks_begin) / walks};
+    ProgressShare walk_progress = walks_progress.next();
     const ReproducedGaitResult g = reproduce_gait(model, driving, reference, feet, go, &walk_progress);
     trial.write(reproduced_gait_motion_table(model, g), "_gait.mot");
     trial.write(reproduced_gait_residual_table(g), "_gait_residuals.sto");
@@ -335,9 +352,10 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
     summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
     summary["cycle_over_speed_s"] = driving.cycle_s / (driving.speed * go.speed);
-    if (!go.pelvis_residuals && !o.check_tolerances.empty())
-      summary["tolerance_check"] = walk_at_tolerances(model, driving, reference, feet, go, g.fell_at_s < 0, o.check_tolerances, summary);
-    if (!o.speed_knobs.empty()) summary["speed_knobs"] = walk_at_speed_knobs(trial, model, driving, reference, feet, go, o.speed_knobs);
+    if (check)
+      summary["tolerance_check"] = walk_at_tolerances(model, driving, reference, feet, go, g.fell_at_s < 0, o.check_tolerances, summary, walks_progress);
+    if (!o.speed_knobs.empty())
+      summary["speed_knobs"] = walk_at_speed_knobs(trial, model, driving, reference, feet, go, o.speed_knobs, walks_progress);
     trial.write_text(json_text(summary, 2) + "\n", "_gait.json");
     return summary;
   }

@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <memory>
+#include <stdexcept>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/cpg/cpg_phase.h"
@@ -85,7 +88,8 @@ bool inside_convex_hull(std::vector<Eigen::Vector2d> pts, const Eigen::Vector2d&
 }  // namespace
 
 ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, const Storage& reference,
-                                    const ContactSet& contacts_in, const ReproducedGaitOptions& o, Progress* progress) {
+                                    const ContactSet& contacts_in, const ReproducedGaitOptions& o, Progress* progress,
+                                    const ReproducedGaitCheckpoint* resume_from) {
   const auto clock_start = std::chrono::steady_clock::now();
   ReproducedGaitResult r;
   r.coordinate_names = coordinate_names(model);
@@ -388,9 +392,44 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   for (const auto& sp : contacts.spheres) sphere_side.push_back(side_of(sp.name));
   PhaseResetting resetting(o.entrainment);
   const double cycle_now_s = cpg_in.cycle_s / cpg.speed;  // the CPG's cycle at the speed knob
-  for (int k = 0; k <= steps; ++k) {
+  // The first control interval from a time on (the stop's and the push's, as the loop finds them); the
+  // interval to keep the state at (-1: none), and the one to begin at.
+  auto interval_from = [dt](double t_s) { return static_cast<int>(std::ceil((t_s - 1e-9) / dt)); };
+  const int checkpoint_interval = o.checkpoint_at_s >= 0 ? interval_from(o.checkpoint_at_s) : -1;
+  if (checkpoint_interval >= 0 && o.stop_time_s >= 0 && checkpoint_interval > interval_from(o.stop_time_s))
+    throw std::invalid_argument("reproduce_gait: a checkpoint must not follow the stop");
+  int first_interval = 0;
+  if (resume_from) {
+    const ReproducedGaitCheckpoint& c = *resume_from;
+    if (c.x.size() != x.size() || c.excitation.size() != nm || c.neurons.x.size() != neurons.x.size() || c.interval > steps ||
+        std::abs(c.interval * dt - c.time_s) > 1e-9 || c.time_rec_s.size() != static_cast<std::size_t>(c.interval))
+      throw std::invalid_argument("reproduce_gait: the checkpoint is not one of this model's, CPG's and control interval's walks");
+    if ((o.stop_time_s >= 0 && c.interval > interval_from(o.stop_time_s)) || (o.push_time_s >= 0 && c.interval > interval_from(o.push_time_s)))
+      throw std::invalid_argument("reproduce_gait: a walk resumed from a checkpoint must not stop or be pushed before it");
+    first_interval = c.interval;
+    x = c.x, excitation = c.excitation, neurons = c.neurons, resetting = c.resetting;
+    ro.initial_step_s = c.integrator_step_s;
+    r.integrator_steps = c.integrator_steps;
+    r.time_s = c.time_rec_s;
+    rec_q = c.q, rec_ref = c.q_reference, rec_res = c.residuals, rec_exc = c.excitations, rec_contact = c.contact_force_N;
+    // Walking until the checkpoint, before any stop: what the stand's measure reads is after it.
+    rec_pelvis_speed.assign(r.time_s.size(), std::numeric_limits<double>::infinity());
+    rec_com_supported.assign(r.time_s.size(), 0);
+    r.resumed_at_s = c.time_s;
+  }
+  for (int k = first_interval; k <= steps; ++k) {
     if (progress && progress->cancelled()) throw std::runtime_error("reproduced gait cancelled");
     const double t = k * dt;
+    if (k == checkpoint_interval) {
+      auto c = std::make_shared<ReproducedGaitCheckpoint>();
+      c->interval = k, c->time_s = t;
+      c->x = x, c->excitation = excitation, c->neurons = neurons, c->resetting = resetting;
+      c->integrator_step_s = ro.initial_step_s;
+      c->integrator_steps = r.integrator_steps;
+      c->time_rec_s = r.time_s;
+      c->q = rec_q, c->q_reference = rec_ref, c->residuals = rec_res, c->excitations = rec_exc, c->contact_force_N = rec_contact;
+      r.checkpoint = std::move(c);
+    }
     // Walk -> stand: once past stop_time_s, the walk freezes where the cycle's phase (the CPG's, or the
     // reference's by time) passes stop_phase.
     if (o.stop_time_s >= 0 && frozen_at_s < 0 && t >= o.stop_time_s - 1e-9) {

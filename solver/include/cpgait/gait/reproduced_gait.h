@@ -17,11 +17,13 @@
 // springs the model sank onto its toes and fell at 2.45 s (28 % BW, hip_flexion_l 21 deg off) -
 // measured.
 #include <Eigen/Core>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "cpgait/capture/storage.h"
 #include "cpgait/cpg/cpg_fit.h"
+#include "cpgait/cpg/matsuoka.h"
 #include "cpgait/cpg/phase_resetting.h"
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
@@ -117,6 +119,24 @@ struct ReproducedGaitOptions {
   // and a controller tuned to walk on soft reflexes buckles at its walking gains (the stop's test).
   double stand_reflex_gain = 2;
   StandingBalanceGains standing;
+  // The walk's state at the control interval that begins at this time (s; < 0, the default: none) is
+  // kept in the result (ReproducedGaitResult::checkpoint), for a walk that is this one until then to
+  // resume from. Not after a stop_time_s.
+  double checkpoint_at_s = -1;
+};
+
+// A walk's state at the start of a control interval, and what it recorded before: the simulation
+// loop's whole state, so a walk resumed from it is the walk taken from the beginning, to the bit.
+struct ReproducedGaitCheckpoint {
+  int interval = 0;  // the control interval it begins (time interval x control_interval_s)
+  double time_s = 0;
+  Eigen::VectorXd x, excitation;
+  MatsuokaState neurons;
+  PhaseResetting resetting{PhaseResettingOptions{}};
+  double integrator_step_s = 0;  // the integrator's next step
+  long integrator_steps = 0;
+  std::vector<double> time_rec_s;
+  std::vector<Eigen::VectorXd> q, q_reference, residuals, excitations, contact_force_N;
 };
 
 struct ReproducedGaitResult {
@@ -156,7 +176,11 @@ struct ReproducedGaitResult {
   double solve_seconds = 0;
   long integrator_steps = 0;
   std::vector<std::string> warnings;
-  double real_time_factor() const { return solve_seconds > 0 && !time_s.empty() ? time_s.back() / solve_seconds : 0; }
+  // The state at options.checkpoint_at_s, where the walk got there; resumed_at_s: where this walk
+  // resumed from a checkpoint (0: it began at the beginning). solve_seconds is this call's time.
+  std::shared_ptr<const ReproducedGaitCheckpoint> checkpoint;
+  double resumed_at_s = 0;
+  double real_time_factor() const { return solve_seconds > 0 && !time_s.empty() ? (time_s.back() - resumed_at_s) / solve_seconds : 0; }
   std::string BriefReport() const;
 };
 
@@ -168,9 +192,11 @@ double reproduced_gait_begin_s(const CpgModel& cpg, double reference_front_s, do
 // reflex and balance gains, reference, residual setting, start and beginning.
 ReproducedGaitOptions with_controller(const CpgController& controller, ReproducedGaitOptions options);
 
+// resume_from: a checkpoint of a walk with the same model, CPG, reference, contacts and options up
+// to its time (a stop or a push may follow it, not precede it); the walk goes on from there.
 ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg, const Storage& reference_coordinates,
                                     const ContactSet& contacts, const ReproducedGaitOptions& options = {},
-                                    Progress* progress = nullptr);
+                                    Progress* progress = nullptr, const ReproducedGaitCheckpoint* resume_from = nullptr);
 
 // Files: the simulated motion (.mot, degrees), the residuals (.sto), contact forces (.sto), and the
 // metrics as JSON.
