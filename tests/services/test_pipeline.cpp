@@ -197,9 +197,9 @@ struct RecordingObserver : PipelineObserver {
   bool cancelled() const override { return cancel; }
 };
 
-TrialInputs walker_trial(const std::string& dir) {
+TrialInputs walker_trial(const std::string& dir, double duration_s = 0.5) {
   cpgait::fixtures::SyntheticTrialOptions so;
-  so.duration_s = 0.5;
+  so.duration_s = duration_s;
   const auto trial = cpgait::fixtures::synthesize_trial(cpgait::refdata::walker(), so);
   TrialInputs in;
   in.name = "walk";
@@ -234,6 +234,36 @@ TEST(PipelineStages, AStepsProgressIsItsShareOfTheStages) {
   cpgait::ProgressShare orphan(nullptr, 0.0, 1.0);
   orphan.report(0.5, "nobody listens");
   EXPECT_FALSE(orphan.cancelled());
+}
+
+// The gait stage's walks (untuned here: its main walk, the two check tolerances' and speed knob 0.8's)
+// each take a quarter of its progress: the main walk reports up to a quarter, the rest comes after
+// its motion was written. (Before, the main walk took the bar to 100 % and the others reported nothing.)
+TEST(PipelineStages, TheGaitStagesWalksEachReportTheirShareOfItsProgress) {
+  const std::string dir = cpgait::refdata::temp_dir("gait_progress");
+  const TrialInputs in = walker_trial(dir, 4.0);
+  struct GaitProgress : PipelineObserver {
+    std::string main_walk;
+    std::vector<std::pair<double, bool>> reports;  // the fraction, and whether the main walk was written by then
+    void stage_progress(const std::string& stage, double fraction) override {
+      if (stage == "gait") reports.emplace_back(fraction, fs::exists(main_walk));
+    }
+  } observer;
+  observer.main_walk = dir + "/out/walk_gait.mot";
+  const PipelineOptions o = PipelineOptions::from_json(
+      {{"gait", {{"tune_evaluations", 0}, {"foot_spheres", 2}, {"speed_knobs", {0.8}}, {"check_tolerances", {5e-4, 2e-3}}}}}, "options.json");
+  run_pipeline(in, o, dir + "/out", &observer);
+  ASSERT_FALSE(observer.reports.empty());
+  bool after_main_walk = false;
+  for (std::size_t i = 0; i < observer.reports.size(); ++i) {
+    const auto [fraction, written] = observer.reports[i];
+    if (!written) EXPECT_LE(fraction, 0.25 + 1e-12) << "report " << i;
+    if (written) EXPECT_GE(fraction, 0.25 - 1e-12) << "report " << i;
+    if (i > 0) EXPECT_GE(fraction, observer.reports[i - 1].first) << "report " << i;
+    after_main_walk = after_main_walk || (written && fraction > 0.7);
+  }
+  EXPECT_TRUE(after_main_walk) << "no progress from the speed knob's walk";
+  fs::remove_all(dir);
 }
 
 TEST(PipelineStages, ATestStageIsItsOwnFileAndOneTableLine) {
