@@ -123,12 +123,12 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     bool is_level_walk_of(const Walk& stop) const {
       return stop_at < 0 && stop.stop_at >= 0 && speed == stop.speed && step_m == 0 && push_N_s.isZero() && tolerance == stop.tolerance;
     }
-    // A level walk's first walk -> stand trial among walks (nullptr: none): it resumes from this
-    // walk's state at its stop.
-    const Walk* first_stop(const std::vector<Walk>& walks) const {
-      for (const Walk& w : walks)
-        if (is_level_walk_of(w)) return &w;
-      return nullptr;
+    // A level walk's first walk -> stand trial among walks (-1: none): it resumes from this walk's
+    // state at its stop.
+    int first_stop(const std::vector<Walk>& walks) const {
+      for (std::size_t j = 0; j < walks.size(); ++j)
+        if (is_level_walk_of(walks[j])) return static_cast<int>(j);
+      return -1;
     }
   };
   std::vector<double> tolerances = t.integrator_tolerances;
@@ -156,21 +156,18 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     double cost = 0, time_walked = horizon_s, worst_stride = 0;
     double cost_here = 0, walked_here = horizon_s, simulated_here = 0;
     std::vector<double> fell_at_s(walks.size(), -1);  // each walk simulated so far: where it fell (< 0: it did not)
-    // Each level walk's state at the first stop of its walk -> stand trials, which resume from it.
-    std::vector<std::shared_ptr<const ReproducedGaitCheckpoint>> at_stop(walks.size());
+    // Per walk -> stand trial: its level walk's state at its stop, to resume from (the first trial of
+    // each level walk only).
+    std::vector<std::shared_ptr<const ReproducedGaitCheckpoint>> resume_at(walks.size());
     for (std::size_t i = 0; i < walks.size(); ++i) {
       const Walk& w = walks[i];
       // A walk -> stand trial is its level walk until the stop: where that one fell before the stop,
       // this one falls at the same step, and is not simulated again; else it goes on from the level
       // walk's state at the stop.
-      const ReproducedGaitCheckpoint* resume_from = nullptr;
       if (w.stop_at >= 0) {
         double level_fell_at_s = -1;
         for (std::size_t j = 0; j < i; ++j)
-          if (walks[j].is_level_walk_of(w)) {
-            if (fell_at_s[j] >= 0) level_fell_at_s = fell_at_s[j];
-            if (at_stop[j] && walks[j].first_stop(walks) == &w) resume_from = at_stop[j].get();
-          }
+          if (walks[j].is_level_walk_of(w) && fell_at_s[j] >= 0) level_fell_at_s = fell_at_s[j];
         if (level_fell_at_s >= 0 && level_fell_at_s < w.stop_at * horizon_s - 1e-9) {
           walked_here = level_fell_at_s;
           cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s;
@@ -194,13 +191,14 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       if (w.step_m != 0) o.ground_step_m = w.step_m, o.ground_step_time_s = w.step_at * horizon_s;
       if (w.push_N_s.norm() > 0) o.push_time_s = 0.5 * horizon_s, o.push_duration_s = 0.1, o.push_force_N = w.push_N_s / 0.1;
       if (w.stop_at >= 0) o.stop_time_s = w.stop_at * horizon_s;
-      if (const Walk* stop = w.first_stop(walks)) o.checkpoint_at_s = stop->stop_at * horizon_s;
+      const int stop = w.first_stop(walks);
+      if (stop >= 0) o.checkpoint_at_s = walks[static_cast<std::size_t>(stop)].stop_at * horizon_s;
       cost_here = t.fall_weight, walked_here = 0;
       try {
-        const ReproducedGaitResult g = reproduce_gait(model, working, reference, contacts, o, nullptr, resume_from);
+        const ReproducedGaitResult g = reproduce_gait(model, working, reference, contacts, o, nullptr, resume_at[i].get());
         if (!g.time_s.empty()) simulated_here += g.time_s.back() - g.resumed_at_s;
         fell_at_s[i] = g.fell_at_s;
-        at_stop[i] = g.checkpoint;
+        if (stop >= 0) resume_at[static_cast<std::size_t>(stop)] = g.checkpoint;
         walked_here = g.fell_at_s < 0 ? horizon_s : g.fell_at_s;
         cost_here = t.fall_weight * (horizon_s - walked_here) / horizon_s;
         if (w.stop_at < 0) {  // a walk: also how it tracks the trial's cycle, its effort and its stride
