@@ -192,12 +192,14 @@ void run_gait(const GaitArgs& g) {
     o.start_time_s = strikes.front();
     std::printf("start: heel strike of %s at %.3f s (Zeni)\n", foot.c_str(), o.start_time_s);
   }
-  // The ground under the recorded feet (as CMC places it), the spheres fitted to the trial's feet.
+  // The ground under the recorded feet (as CMC places it), the spheres fitted to the trial's feet: on
+  // the file's own rows, as the pipeline's gait stage fits them to its IK's, so that a controller the
+  // stage tuned replays on its feet (on rows resampled from rounded times the belt differed by 2e-5).
   if (!ground_given) {
     if (g.no_foot_fit) {
-      place_ground_under_feet(model, contacts, k.time_s, k.q);
+      place_ground_under_feet(model, contacts, k.recorded_time_s, k.q_recorded);
     } else {
-      const FootSphereFit fit = fit_foot_spheres_to_trial(model, contacts, k.time_s, k.q);
+      const FootSphereFit fit = fit_foot_spheres_to_trial(model, contacts, k.recorded_time_s, k.q_recorded);
       print_warnings(fit.warnings);
       std::printf("feet fitted to the trial: depth %.1f mm (mean sphere force %.0f N); radius changes", fit.depth_m * 1000, fit.mean_force_N);
       for (std::size_t s = 0; s < contacts.spheres.size(); ++s)

@@ -31,8 +31,8 @@ void write_text_atomic(const std::string& path, const std::string& content) {
   }
 }
 
-void write_storage_atomic(const Storage& table, const std::string& path) {
-  write_text_atomic(path, format_storage(table));
+void write_storage_atomic(const Storage& table, const std::string& path, int digits) {
+  write_text_atomic(path, format_storage(table, digits));
 }
 
 std::string json_text(const nlohmann::json& j, int indent) {

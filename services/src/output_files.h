@@ -10,7 +10,8 @@
 namespace cpgait::services {
 
 void write_text_atomic(const std::string& path, const std::string& content);
-void write_storage_atomic(const Storage& table, const std::string& path);
+// digits: significant digits (format_storage; 17 round-trips every double).
+void write_storage_atomic(const Storage& table, const std::string& path, int digits = 12);
 // Creates the folder (and parents); throws with the path on failure.
 void ensure_directory(const std::string& dir);
 // JSON text of `j`. Strings from users' files (labels, names, error messages) may hold bytes that are

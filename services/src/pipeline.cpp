@@ -68,8 +68,8 @@ StageContext open_trial(const TrialInputs& in, const PipelineOptions& options, c
 
 }  // namespace
 
-void StageContext::write(const Storage& table, const std::string& suffix) {
-  write_storage_atomic(table, (fs::path(out_dir) / (inputs.name + suffix)).string());
+void StageContext::write(const Storage& table, const std::string& suffix, int digits) {
+  write_storage_atomic(table, (fs::path(out_dir) / (inputs.name + suffix)).string(), digits);
   files.push_back(inputs.name + suffix);
 }
 

@@ -53,8 +53,8 @@ struct StageContext {
   // factors): stage -> {key: value}.
   std::map<std::string, nlohmann::json> recorded_options;
 
-  // Writes <trial name><suffix> into out_dir atomically and records it.
-  void write(const Storage& table, const std::string& suffix);
+  // Writes <trial name><suffix> into out_dir atomically (digits: write_storage_atomic's) and records it.
+  void write(const Storage& table, const std::string& suffix, int digits = 12);
   void write_text(const std::string& text, const std::string& suffix);
 };
 

@@ -1,6 +1,7 @@
 // The cpgait executable end to end: subcommands write OpenSim files, bad input exits with a message.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
+#include <sstream>
 #include <sys/stat.h>
 #include <thread>
 #include "c3d_writer.h"
@@ -333,6 +335,58 @@ TEST(Cli, CpgFitThenRun) {
   EXPECT_EQ(e.labels, (std::vector<std::string>{"time", "a", "b"}));
   EXPECT_NE(r.output.find("cycle 0.800 s"), std::string::npos) << r.output;
   EXPECT_EQ(run("cpg fit --patterns " + dir + "/p.sto -o " + dir + "/x.json").status, 2);  // no cycles given
+  fs::remove_all(dir);
+}
+
+// A stored controller replays the stage's walks from the files the stage wrote: the CPG's JSON and the
+// reference it walked against (_gait_reference.sto, every digit) to the bit; the IK's .mot (12 digits,
+// degrees) as closely as its digits allow. The trial's times are rounded to the millisecond, as
+// subject01's TRC holds them (60 Hz: 0.017, 0.033), so the IK's samples are unevenly spaced and the
+// trajectories resampled. Before, `cpgait gait` fitted the feet to those resampled trajectories and
+// the stage to the recorded poses: on subject01 the belts differed by 2e-5, and a replay of seed 1's
+// knob 0.8 fell at 9.73 s where the stage's walk lasted 10 s.
+TEST(Cli, TheGaitStagesWalksReplayFromItsFiles) {
+  const std::string dir = cpgait::refdata::temp_dir("cli_replay_bits");
+  const std::string model = cpgait::refdata::fixture("models/walker.osim");
+  ASSERT_EQ(run("synth --model " + model + " --duration 3 --rate 60 -o " + dir + "/w.trc").status, 0);
+  {
+    std::istringstream in(cpgait::text::read_file(dir + "/w.trc"));
+    std::string rounded, line;
+    for (int n = 1; std::getline(in, line); ++n) {
+      const auto a = line.find('\t'), b = a == std::string::npos ? a : line.find('\t', a + 1);
+      if (n > 5 && b != std::string::npos) {  // a frame: number, time, markers
+        char t[32];
+        std::snprintf(t, sizeof t, "%.3f", std::stod(line.substr(a + 1, b - a - 1)));
+        line = line.substr(0, a + 1) + t + line.substr(b);
+      }
+      rounded += line + "\n";
+    }
+    std::ofstream(dir + "/w.trc") << rounded;
+  }
+  std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 4, "tune_horizon_s": 1.0, "speed_knobs": [0.8], "schedule_evaluations": 0,
+                                              "check_tolerances": [], "foot_spheres": 2}})";
+  const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(cpgait::text::read_file(dir + "/out/w_ik.mot").find("\n0.017\t"), std::string::npos);  // times as rounded
+  auto replay = [&](const std::string& kinematics, const std::string& knob, const std::string& out) {
+    const CliRun g = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir + "/out/" + kinematics +
+                         " --duration 10 --speed " + knob + " -o " + dir + "/" + out);
+    EXPECT_EQ(g.status, 0) << g.output;
+    return cpgait::text::read_file(dir + "/" + out + "_gait.mot");
+  };
+  for (const std::string knob : {"1", "0.8"}) {
+    const std::string staged = cpgait::text::read_file(dir + (knob == "1" ? "/out/w_gait.mot" : "/out/w_gait_speed_0.8.mot"));
+    ASSERT_GT(std::count(staged.begin(), staged.end(), '\n'), 100) << "knob " << knob;
+    EXPECT_TRUE(staged == replay("w_gait_reference.sto", knob, "exact" + knob)) << "knob " << knob;
+    // From the .mot: its 12 digits apart, the same walk (as printed) over its first second.
+    replay("w_ik.mot", knob, "mot" + knob);
+    const cpgait::Storage a = cpgait::read_storage(dir + (knob == "1" ? "/out/w_gait.mot" : "/out/w_gait_speed_0.8.mot")),
+                          b = cpgait::read_storage(dir + "/mot" + knob + "_gait.mot");
+    const int rows = std::min({a.num_rows(), b.num_rows(), 400});
+    ASSERT_GT(rows, 100);
+    EXPECT_LT((a.data.topRows(rows) - b.data.topRows(rows)).cwiseAbs().maxCoeff(), 1e-6) << "knob " << knob;
+  }
+  EXPECT_TRUE(cpgait::text::read_file(dir + "/out/w_gait_contact_forces.sto") == cpgait::text::read_file(dir + "/exact1_gait_contact_forces.sto"));
   fs::remove_all(dir);
 }
 

@@ -258,6 +258,48 @@ TEST(InverseDynamics, RecoversTorquesOfASyntheticMotion) {
   EXPECT_EQ(table.labels[m.coordinate_index("knee_angle_r") + 1], "knee_angle_r_moment");
 }
 
+// Times rounded in the file (60 Hz to the millisecond, as subject01's TRC and IK hold them): the
+// trajectories are resampled onto an even grid before differentiating, so their values at the sample
+// times are the spline's, off the recorded ones; the recorded rows stay as the file has them, in
+// internal units, for fits to the recorded poses.
+TEST(InverseDynamics, KeepsTheRecordedRowsOfATableWithRoundedTimes) {
+  const Model& m = walker();
+  const int n = m.num_coordinates(), rows = 60;
+  const int knee = m.coordinate_index("knee_angle_r"), tx = m.coordinate_index("pelvis_tx"), absent = m.coordinate_index("hip_flexion_l");
+  auto time = [](int r) { return std::round(1000.0 * r / 60.0) / 1000.0; };
+  auto value = [&](int r, int c) {  // degrees for angles
+    return c == knee ? 40 * std::sin(6.0 * r / 60.0) : c == tx ? 1.2 * r / 60.0 + 0.01 * std::sin(9.0 * r / 60.0) : 0.1 * c;
+  };
+  // The table, without hip_flexion_l's column.
+  Storage coords;
+  coords.in_degrees = true;
+  coords.labels.push_back("time");
+  for (int c = 0; c < n; ++c)
+    if (c != absent) coords.labels.push_back(m.coordinates[c].name);
+  coords.data.resize(rows, n);
+  for (int r = 0; r < rows; ++r) {
+    coords.data(r, 0) = time(r);
+    for (int c = 0, col = 1; c < n; ++c)
+      if (c != absent) coords.data(r, col++) = value(r, c);
+  }
+  const CoordinateTrajectories k = coordinate_trajectories(m, coords, {});
+  bool said_uneven = false;
+  for (const auto& w : k.warnings) said_uneven = said_uneven || w.find("unevenly spaced") != std::string::npos;
+  EXPECT_TRUE(said_uneven);
+  ASSERT_EQ(k.recorded_time_s.size(), static_cast<std::size_t>(rows));
+  ASSERT_EQ(k.q_recorded.rows(), rows);
+  ASSERT_EQ(k.q_recorded.cols(), n);
+  for (int r = 0; r < rows; ++r) {
+    EXPECT_EQ(k.recorded_time_s[r], time(r));
+    EXPECT_EQ(k.q_recorded(r, knee), value(r, knee) * (M_PI / 180.0));
+    EXPECT_EQ(k.q_recorded(r, tx), value(r, tx));  // a translation: not converted
+    EXPECT_EQ(k.q_recorded(r, absent), m.coordinates[absent].default_value);  // as the trajectories hold it
+  }
+  // The resampled values at the sample times are the spline's, off the recorded ones: a fit to them
+  // would move.
+  EXPECT_GT((k.q.col(knee) - k.q_recorded.col(knee)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
 TEST(ExternalLoads, UnknownBodyOrColumnNamesTheXmlLine) {
   const std::string dir = ::testing::TempDir();
   const std::string xml = dir + "/loads.xml";

@@ -285,7 +285,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
   std::string description() const override { return "reproduced gait: the CPG-driven muscles walk the model on contact spheres"; }
   std::vector<std::string> needs() const override { return {"cpg"}; }
   std::vector<std::string> writes() const override {
-    return {"_gait.mot", "_gait_residuals.sto", "_gait_contact_forces.sto", "_gait.json", "_cpg_tuned.json (when tuned)",
+    return {"_gait.mot", "_gait_residuals.sto", "_gait_contact_forces.sto", "_gait.json", "_gait_reference.sto", "_cpg_tuned.json (when tuned)",
             "_gait_speed_<knob>.mot (speed_knobs)"};
   }
   std::vector<std::string> tables() const override { return {"_gait.mot", "_gait_residuals.sto"}; }
@@ -311,7 +311,10 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     if (start < 0 || available < 0.5 * cycle_s)
       return {{"not_run", "the trial is shorter than half a gait cycle, or has no usable heel strike"}};
 
-    const Storage reference = make_storage("ik", coordinate_names(model), ik.time_s, ik.q, false);
+    // The IK's coordinates the walks follow, written to every digit (rad, m): from them `cpgait gait
+    // --kinematics` replays the stage's walks to the bit (from the .mot's 12 digits in degrees, to ~1e-12).
+    const Storage reference = make_storage("gait reference: the IK's coordinates", coordinate_names(model), ik.time_s, ik.q, false);
+    trial.write(reference, "_gait_reference.sto", 17);
     const FootSphereFit fit = fit_foot_spheres_to_trial(model, feet, ik.time_s, ik.q);
     ReproducedGaitOptions go;
     go.start_time_s = start;

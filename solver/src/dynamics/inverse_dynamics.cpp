@@ -93,6 +93,8 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
   out.q.resize(m, nq);
   out.qd.resize(m, nq);
   out.qdd.resize(m, nq);
+  out.recorded_time_s = sample_times;
+  out.q_recorded.resize(n, nq);
 
   // Padding keeps the filter's start-up transient and the spline's end effects out of the data.
   const int pad = options.lowpass_cutoff_hz >= 0 ? n / 2 : 0;
@@ -103,6 +105,7 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
     const int col = coordinate_column(coords, co.name);
     if (col < 0) {
       out.warnings.push_back("coordinate '" + co.name + "' is not in the coordinates file; held at its default");
+      out.q_recorded.col(c).setConstant(co.default_value);
       out.q.col(c).setConstant(co.default_value);
       out.qd.col(c).setZero();
       out.qdd.col(c).setZero();
@@ -110,6 +113,7 @@ CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage
     }
     Eigen::VectorXd x = coords.data.col(col);
     if (degrees && co.is_angle()) x *= M_PI / 180.0;
+    out.q_recorded.col(c) = x;
     if (!uniform) {
       const Function raw = Function::simm_spline(sample_times, std::vector<double>(x.data(), x.data() + n));
       for (int i = 0; i < n; ++i) x[i] = raw.value(knots[pad + i]);

@@ -35,6 +35,11 @@ struct InverseDynamicsOptions {
 struct CoordinateTrajectories {
   std::vector<double> time_s;
   Eigen::MatrixXd q, qd, qdd;  // samples x coordinates
+  // The table's own rows, all of them (rad, m): neither resampled nor filtered. Fits to the recorded
+  // poses (the feet's spheres and ground) use these, so that a table read back from its file gives
+  // the fit the pipeline made from the same poses in memory.
+  std::vector<double> recorded_time_s;
+  Eigen::MatrixXd q_recorded;
   std::vector<std::string> warnings;
 };
 CoordinateTrajectories coordinate_trajectories(const Model& model, const Storage& coordinates,
