@@ -157,6 +157,8 @@ struct GaitArgs {
   int tune = 0;
   std::vector<double> push_force_N;
   std::vector<double> tune_pushes_N_s;  // x y z per push
+  // --tolerance, --control-interval, --integrator: given, they win over the simulation a controller was tuned in.
+  const CLI::Option *tolerance_option = nullptr, *control_interval_option = nullptr, *integrator_option = nullptr;
 };
 
 void run_gait(const GaitArgs& g) {
@@ -177,6 +179,17 @@ void run_gait(const GaitArgs& g) {
   if (contacts.spheres.empty())
     throw InputError(g.model, 0, "contacts", "the model has no calcn_/toes_ or foot_ bodies for default contact spheres: give --contacts");
   ReproducedGaitOptions o = g.options;
+  // The simulation the CPG's controller was tuned in, for its tuning below and its walk, unless given here.
+  auto given = [](const CLI::Option* option) { return option && option->count() > 0; };
+  auto simulation_given_here = [&](ReproducedGaitOptions& x) {
+    if (given(g.tolerance_option)) x.integrator_tolerance = g.options.integrator_tolerance;
+    if (given(g.control_interval_option)) x.control_interval_s = g.options.control_interval_s;
+    if (given(g.integrator_option)) x.integrator = g.options.integrator;
+  };
+  if (cpg.controller) {
+    o = with_controller_simulation(*cpg.controller, o);
+    simulation_given_here(o);
+  }
   o.pelvis_residuals = !g.no_residuals;
   if (!g.push_force_N.empty()) o.push_force_N = Eigen::Vector3d(g.push_force_N[0], g.push_force_N[1], g.push_force_N[2]);
   const CoordinateTrajectories k = coordinate_trajectories(model, kin, {});
@@ -230,10 +243,12 @@ void run_gait(const GaitArgs& g) {
   }
   if (driving.controller) {
     o = with_controller(*driving.controller, o);
+    simulation_given_here(o);
     if (g.start >= 0) o.start_time_s = g.start;  // given: they win over the controller's
     if (g.options.begin_time_s >= 0) o.begin_time_s = g.options.begin_time_s;
-    std::printf("controller from the CPG: reflex %.1f / %.2f, %s, %s residuals\n", o.reflex_kp, o.reflex_kv,
-                o.phase_indexed_reference ? "reference by phase" : "reference by time", o.pelvis_residuals ? "with" : "without");
+    std::printf("controller from the CPG: reflex %.1f / %.2f, %s, %s residuals; updated every %g ms, %s at tolerance %g\n", o.reflex_kp,
+                o.reflex_kv, o.phase_indexed_reference ? "reference by phase" : "reference by time", o.pelvis_residuals ? "with" : "without",
+                o.control_interval_s * 1000, w_method_name(o.integrator).c_str(), o.integrator_tolerance);
   }
   if (g.entrainment >= 0) o.entrainment.share = g.entrainment;  // given: they win over the controller's
   if (g.entrainment_phases.size() == 2) o.entrainment.phase_r = g.entrainment_phases[0], o.entrainment.phase_l = g.entrainment_phases[1];
@@ -373,18 +388,22 @@ void add_gait_command(CLI::App& app) {
       ->expected(2);
   gait->add_option("--reflex-kp", g->options.reflex_kp, "joint-angle reflex gain, excitation per (m x rad)")->capture_default_str();
   gait->add_option("--reflex-kv", g->options.reflex_kv, "joint-speed reflex gain, excitation per (m x rad/s)")->capture_default_str();
-  gait->add_option("--tolerance", g->options.integrator_tolerance, "integrator error tolerance (relative and absolute)")
-      ->check(CLI::Range(1e-8, 1e-1))
-      ->capture_default_str();
-  gait->add_option("--control-interval", g->options.control_interval_s,
-                   "the controller's interval, s: the CPG, reflexes and balance feedback are updated once per interval (also the "
-                   "integrator's largest step and the output's sample)")
-      ->check(CLI::Range(1e-4, 1e-2))
-      ->capture_default_str();
-  gait->add_option("--integrator", g->options.integrator,
-                   "ros34pw2 (third-order Rosenbrock-W; the default) or rosenbrock (ROS2, second order: the walks before ros34pw2 "
-                   "became the default, with --control-interval 0.001)")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, WMethod>{{"ros34pw2", WMethod::kRos34pw2}, {"rosenbrock", WMethod::kRos2}}));
+  g->tolerance_option = gait->add_option("--tolerance", g->options.integrator_tolerance,
+                                         "integrator error tolerance (relative and absolute); default: the one the CPG's controller was "
+                                         "tuned at, else this")
+                            ->check(CLI::Range(1e-8, 1e-1))
+                            ->capture_default_str();
+  g->control_interval_option =
+      gait->add_option("--control-interval", g->options.control_interval_s,
+                       "the controller's interval, s: the CPG, reflexes and balance feedback are updated once per interval (also the "
+                       "integrator's largest step and the output's sample); default: the one the CPG's controller was tuned at, else this")
+          ->check(CLI::Range(1e-4, 1e-2))
+          ->capture_default_str();
+  g->integrator_option =
+      gait->add_option("--integrator", g->options.integrator,
+                       "ros34pw2 (third-order Rosenbrock-W; the default) or rosenbrock (ROS2, second order: the walks before ros34pw2 "
+                       "became the default, with --control-interval 0.001); default: the one the CPG's controller was tuned in")
+          ->transform(CLI::CheckedTransformer(std::map<std::string, WMethod>{{"ros34pw2", WMethod::kRos34pw2}, {"rosenbrock", WMethod::kRos2}}));
   gait->add_flag("--compliant-tendons", g->options.compliant_tendons,
                  "compliant tendons (OpenSim's Thelen2003Muscle; suits a CPG fitted to CMC excitations). Default: rigid, as static "
                  "optimization assumes");

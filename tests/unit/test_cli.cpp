@@ -344,7 +344,9 @@ TEST(Cli, CpgFitThenRun) {
 // subject01's TRC holds them (60 Hz: 0.017, 0.033), so the IK's samples are unevenly spaced and the
 // trajectories resampled. Before, `cpgait gait` fitted the feet to those resampled trajectories and
 // the stage to the recorded poses: on subject01 the belts differed by 2e-5, and a replay of seed 1's
-// knob 0.8 fell at 9.73 s where the stage's walk lasted 10 s.
+// knob 0.8 fell at 9.73 s where the stage's walk lasted 10 s. The stage simulates off the defaults
+// (its controller every 4 ms, tolerance 2e-3): the controller records that simulation and a replay
+// runs in it unless told otherwise.
 TEST(Cli, TheGaitStagesWalksReplayFromItsFiles) {
   const std::string dir = cpgait::refdata::temp_dir("cli_replay_bits");
   const std::string model = cpgait::refdata::fixture("models/walker.osim");
@@ -364,7 +366,7 @@ TEST(Cli, TheGaitStagesWalksReplayFromItsFiles) {
     std::ofstream(dir + "/w.trc") << rounded;
   }
   std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 4, "tune_horizon_s": 1.0, "speed_knobs": [0.8], "schedule_evaluations": 0,
-                                              "check_tolerances": [], "foot_spheres": 2}})";
+                                              "check_tolerances": [], "foot_spheres": 2, "control_interval_s": 0.004, "tolerance": 0.002}})";
   const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(cpgait::text::read_file(dir + "/out/w_ik.mot").find("\n0.017\t"), std::string::npos);  // times as rounded
@@ -376,17 +378,25 @@ TEST(Cli, TheGaitStagesWalksReplayFromItsFiles) {
   };
   for (const std::string knob : {"1", "0.8"}) {
     const std::string staged = cpgait::text::read_file(dir + (knob == "1" ? "/out/w_gait.mot" : "/out/w_gait_speed_0.8.mot"));
-    ASSERT_GT(std::count(staged.begin(), staged.end(), '\n'), 100) << "knob " << knob;
+    ASSERT_GT(std::count(staged.begin(), staged.end(), '\n'), 50) << "knob " << knob;
     EXPECT_TRUE(staged == replay("w_gait_reference.sto", knob, "exact" + knob)) << "knob " << knob;
     // From the .mot: its 12 digits apart, the same walk (as printed) over its first second.
     replay("w_ik.mot", knob, "mot" + knob);
     const cpgait::Storage a = cpgait::read_storage(dir + (knob == "1" ? "/out/w_gait.mot" : "/out/w_gait_speed_0.8.mot")),
                           b = cpgait::read_storage(dir + "/mot" + knob + "_gait.mot");
-    const int rows = std::min({a.num_rows(), b.num_rows(), 400});
-    ASSERT_GT(rows, 100);
+    const int rows = std::min({a.num_rows(), b.num_rows(), 250});
+    ASSERT_GT(rows, 50);
     EXPECT_LT((a.data.topRows(rows) - b.data.topRows(rows)).cwiseAbs().maxCoeff(), 1e-6) << "knob " << knob;
   }
   EXPECT_TRUE(cpgait::text::read_file(dir + "/out/w_gait_contact_forces.sto") == cpgait::text::read_file(dir + "/exact1_gait_contact_forces.sto"));
+  const nlohmann::json tuned = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_cpg_tuned.json"));
+  EXPECT_EQ(tuned["controller"]["simulation"], nlohmann::json({{"control_interval_s", 0.004}, {"integrator", "ros34pw2"}, {"tolerance", 0.002}}));
+  // Told otherwise: the controller every 2.5 ms, another walk.
+  const CliRun told = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                          "/out/w_gait_reference.sto --duration 10 --control-interval 0.0025 -o " + dir + "/told");
+  ASSERT_EQ(told.status, 0) << told.output;
+  EXPECT_NE(told.output.find("updated every 2.5 ms, ros34pw2 at tolerance 0.002"), std::string::npos) << told.output;
+  EXPECT_FALSE(cpgait::text::read_file(dir + "/out/w_gait.mot") == cpgait::text::read_file(dir + "/told_gait.mot"));
   fs::remove_all(dir);
 }
 

@@ -222,6 +222,26 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "controller.entrainment.share");
   }
+  // The simulation it was tuned in: not recorded (0, empty) when the JSON predates it, as written
+  // otherwise; an integrator by another name, or an interval past 10 ms, is refused.
+  EXPECT_EQ(k.control_interval_s, 0.0);
+  EXPECT_EQ(k.integrator_tolerance, 0.0);
+  EXPECT_EQ(k.integrator, "");
+  named.controller->control_interval_s = 0.004, named.controller->integrator_tolerance = 2e-3, named.controller->integrator = "rosenbrock";
+  const CpgController simulated = *CpgModel::from_json(named.to_json(), "model.json").controller;
+  EXPECT_EQ(simulated.control_interval_s, 0.004);
+  EXPECT_EQ(simulated.integrator_tolerance, 2e-3);
+  EXPECT_EQ(simulated.integrator, "rosenbrock");
+  for (const auto& [key, value] : std::vector<std::pair<std::string, nlohmann::json>>{{"integrator", "euler"}, {"control_interval_s", 0.02}, {"tolerance", -1}}) {
+    bad = named.to_json();
+    bad["controller"]["simulation"][key] = value;
+    try {
+      CpgModel::from_json(bad, "model.json");
+      ADD_FAILURE() << key << " " << value.dump() << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.field(), "controller.simulation." + key);
+    }
+  }
 }
 
 // A gain schedule over the speed knob: at a tuned knob its own controller and amplitude; between two,

@@ -794,6 +794,40 @@ TEST(GaitTuning, TheControllerRecordsItsFeet) {
   EXPECT_THROW(q.tune(t), std::invalid_argument);
 }
 
+// The tuned controller records the simulation it was tuned in (the controller's interval, the
+// integrator and its tolerance), and a replay's options take them; a speed knob's entry is tuned in
+// the controller's simulation only. A controller updated at another interval is another controller.
+TEST(GaitTuning, TheControllerRecordsItsSimulation) {
+  QuickTuning q(2);
+  q.o.control_interval_s = 0.004, q.o.integrator_tolerance = 2e-3, q.o.integrator = WMethod::kRos2;
+  const GaitTuningResult tuned = q.tune(q.t);
+  ASSERT_TRUE(tuned.cpg.controller.has_value());
+  const CpgController& k = *tuned.cpg.controller;
+  EXPECT_EQ(k.control_interval_s, 0.004);
+  EXPECT_EQ(k.integrator_tolerance, 2e-3);
+  EXPECT_EQ(k.integrator, "rosenbrock");
+  const ReproducedGaitOptions replay = with_controller(k, ReproducedGaitOptions{});
+  EXPECT_EQ(replay.control_interval_s, 0.004);
+  EXPECT_EQ(replay.integrator_tolerance, 2e-3);
+  EXPECT_EQ(replay.integrator, WMethod::kRos2);
+  // Not recorded (a CPG JSON from before): the options' own.
+  const ReproducedGaitOptions unrecorded = with_controller(CpgController{}, q.o);
+  EXPECT_EQ(unrecorded.control_interval_s, 0.004);
+  EXPECT_EQ(unrecorded.integrator, WMethod::kRos2);
+  // The schedule's entry at knob 0.8: in the controller's simulation, not in another.
+  GaitTuningOptions entry = q.t;
+  entry.speeds = {0.8};
+  const GaitTuningResult scheduled = tune_gait_controller(q.w.m, tuned.cpg, q.w.reference, q.w.feet, q.o, entry);
+  ASSERT_EQ(scheduled.cpg.speed_schedule.size(), 1u);
+  EXPECT_EQ(scheduled.cpg.speed_schedule[0].controller.control_interval_s, 0.004);
+  ReproducedGaitOptions other = q.o;
+  other.control_interval_s = 0.0025;
+  EXPECT_THROW(tune_gait_controller(q.w.m, tuned.cpg, q.w.reference, q.w.feet, other, entry), std::invalid_argument);
+  other = q.o;
+  other.integrator_tolerance = 1e-3;
+  EXPECT_THROW(tune_gait_controller(q.w.m, tuned.cpg, q.w.reference, q.w.feet, other, entry), std::invalid_argument);
+}
+
 // Each ground step is walked at each place (a fraction of the horizon), the cost their mean; a place
 // outside the horizon is refused. Why: subject01's controller tuned with its steps at 5 s of 10
 // walked the 1 cm step up there and fell with either step at 4.5 or 5.5 s, at every tolerance.

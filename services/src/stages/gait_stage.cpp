@@ -323,7 +323,7 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.phase_indexed_reference = o.phase_reference;
     go.integrator_tolerance = o.tolerance;
     go.control_interval_s = o.control_interval_s;
-    go.integrator = o.integrator == "rosenbrock" ? WMethod::kRos2 : WMethod::kRos34pw2;
+    go.integrator = *w_method_named(o.integrator);  // the option's choices are the methods' names
     // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
     CpgModel driving = cpg->model;

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/cpg/pattern_layer.h"
 #include "cpgait/optim/nnls.h"
 
@@ -623,7 +624,8 @@ nlohmann::json CpgController::to_json() const {
           {"trunk_kp", trunk_kp},
           {"trunk_kv", trunk_kv},
           {"entrainment", {{"share", entrainment}, {"phase_r", entrainment_phase_r}, {"phase_l", entrainment_phase_l}}},
-          {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}}};
+          {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}},
+          {"simulation", {{"control_interval_s", control_interval_s}, {"integrator", integrator}, {"tolerance", integrator_tolerance}}}};
 }
 
 CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source) {
@@ -701,6 +703,19 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         k.lateral_v = fp.value("lateral_v_s", k.lateral_v);
         k.sagittal_d = fp.value("sagittal_d", k.sagittal_d);
         k.sagittal_v = fp.value("sagittal_v_s", k.sagittal_v);
+      }
+      if (c.contains("simulation")) {
+        const auto& sim = c["simulation"];
+        if (!sim.is_object()) fail(field + ".simulation", "expected {\"control_interval_s\", \"integrator\", \"tolerance\"}");
+        k.control_interval_s = sim.value("control_interval_s", k.control_interval_s);
+        k.integrator_tolerance = sim.value("tolerance", k.integrator_tolerance);
+        k.integrator = sim.value("integrator", k.integrator);
+        if (!(k.control_interval_s >= 0 && k.control_interval_s <= 0.01))
+          fail(field + ".simulation.control_interval_s", "the controller's interval lies in (0, 0.01] s (0: not recorded)");
+        if (!(k.integrator_tolerance >= 0 && k.integrator_tolerance <= 0.1))
+          fail(field + ".simulation.tolerance", "the integrator's tolerance lies in (0, 0.1] (0: not recorded)");
+        if (!k.integrator.empty() && !w_method_named(k.integrator))
+          fail(field + ".simulation.integrator", "\"ros34pw2\" or \"rosenbrock\" (empty: not recorded), not \"" + k.integrator + "\"");
       }
       for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v})
         if (!std::isfinite(v)) fail(field, "balance gains must be finite numbers");

@@ -148,4 +148,12 @@ DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, co
                                       : integrate_ros2(f, prepare, solve, t0, t1, x, o, step_done);
 }
 
+std::string w_method_name(WMethod method) { return method == WMethod::kRos34pw2 ? "ros34pw2" : "rosenbrock"; }
+
+std::optional<WMethod> w_method_named(std::string_view name) {
+  if (name == "ros34pw2") return WMethod::kRos34pw2;
+  if (name == "rosenbrock") return WMethod::kRos2;
+  return std::nullopt;
+}
+
 }  // namespace cpgait

@@ -713,7 +713,20 @@ ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOpti
   o.entrainment.phase_l = c.entrainment_phase_l;
   if (c.start_time_s >= 0) o.start_time_s = c.start_time_s;
   if (c.begin_time_s >= 0) o.begin_time_s = c.begin_time_s;
+  return with_controller_simulation(c, o);
+}
+
+ReproducedGaitOptions with_controller_simulation(const CpgController& c, ReproducedGaitOptions o) {
+  if (c.control_interval_s > 0) o.control_interval_s = c.control_interval_s;
+  if (c.integrator_tolerance > 0) o.integrator_tolerance = c.integrator_tolerance;
+  if (const auto method = w_method_named(c.integrator)) o.integrator = *method;
   return o;
+}
+
+void record_simulation(const ReproducedGaitOptions& o, CpgController& c) {
+  c.control_interval_s = o.control_interval_s;
+  c.integrator_tolerance = o.integrator_tolerance;
+  c.integrator = w_method_name(o.integrator);
 }
 
 std::string ReproducedGaitResult::BriefReport() const {

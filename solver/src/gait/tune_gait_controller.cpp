@@ -46,6 +46,7 @@ Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const Rep
   k.controller.pelvis_residuals = false;
   k.controller.start_time_s = base.start_time_s;
   k.controller.begin_time_s = base.begin_time_s;
+  record_simulation(base, k.controller);  // the candidates walk in the options' simulation
   return k;
 }
 
@@ -101,6 +102,16 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   if (schedule_entry && cpg.controller->foot_spheres != t.foot_spheres)
     throw std::invalid_argument("tune_gait_controller: a speed knob's entry is tuned on the controller's feet (" +
                                 std::to_string(cpg.controller->foot_spheres) + " spheres per foot), not " + std::to_string(t.foot_spheres));
+  if (schedule_entry) {
+    // The schedule's entries share the controller's simulation (scheduled_at_speed keeps its).
+    const CpgController& c = *cpg.controller;
+    const ReproducedGaitOptions in_controllers = with_controller_simulation(c, base);
+    if (in_controllers.control_interval_s != base.control_interval_s || in_controllers.integrator != base.integrator ||
+        in_controllers.integrator_tolerance != base.integrator_tolerance)
+      throw std::invalid_argument("tune_gait_controller: a speed knob's entry is tuned in the controller's simulation (interval " +
+                                  std::to_string(c.control_interval_s) + " s, " + c.integrator + " at " + std::to_string(c.integrator_tolerance) +
+                                  "), not another");
+  }
   const CpgModel start = scheduled_at_speed(cpg, knob);
   CpgModel working = start;  // the best so far: its controller and amplitude
   working.controller = start.controller.value_or(untuned_controller());
@@ -287,6 +298,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   result.summary.walked_s = walked;
   working.controller->speed = knob;
   working.controller->foot_spheres = t.foot_spheres;
+  record_simulation(base, *working.controller);
   result.cpg = working;
   if (schedule_entry) {
     // The CPG as it was, its schedule's entry at this knob replaced.

@@ -13,7 +13,9 @@
 // them implicitly costs almost nothing per step.
 #include <Eigen/Core>
 #include <functional>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include "cpgait/dynamics/dormand_prince.h"
 
@@ -51,6 +53,9 @@ DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& pr
 
 // The W-method a caller chose, and its integration.
 enum class WMethod { kRos2, kRos34pw2 };
+// Their names in options and files: "rosenbrock" (ROS2) and "ros34pw2"; nullopt for another name.
+std::string w_method_name(WMethod method);
+std::optional<WMethod> w_method_named(std::string_view name);
 DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
                                         double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
                                         const WStepDone& step_done = {});

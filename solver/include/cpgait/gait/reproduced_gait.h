@@ -189,8 +189,13 @@ struct ReproducedGaitResult {
 double reproduced_gait_begin_s(const CpgModel& cpg, double reference_front_s, double reference_end_s, const ReproducedGaitOptions& o);
 
 // The options with a tuned controller applied (tune_gait_controller.h; stored in the CPG's JSON): its
-// reflex and balance gains, reference, residual setting, start and beginning.
+// reflex and balance gains, reference, residual setting, start and beginning, and the simulation it
+// was tuned in where it records one.
 ReproducedGaitOptions with_controller(const CpgController& controller, ReproducedGaitOptions options);
+// That simulation alone: the controller's interval, the integrator and its tolerance, where recorded.
+ReproducedGaitOptions with_controller_simulation(const CpgController& controller, ReproducedGaitOptions options);
+// Records the options' simulation in the controller (CpgController::control_interval_s...).
+void record_simulation(const ReproducedGaitOptions& options, CpgController& controller);
 
 // resume_from: a checkpoint of a walk with the same model, CPG, reference, contacts and options up
 // to its time (a stop or a push may follow it, not precede it); the walk goes on from there.
