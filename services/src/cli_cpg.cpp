@@ -161,6 +161,26 @@ struct GaitArgs {
   const CLI::Option *tolerance_option = nullptr, *control_interval_option = nullptr, *integrator_option = nullptr;
 };
 
+// --tune: the CPG with its controller tuned, written to <out>_cpg_tuned.json.
+CpgModel tune_in_cli(const GaitArgs& g, const Model& model, const CpgModel& cpg, const Storage& kin, const ContactSet& contacts,
+                     const ReproducedGaitOptions& o, int foot_spheres) {
+  GaitTuningOptions to = g.tuning;
+  to.evaluations = g.tune;
+  to.foot_spheres = foot_spheres;
+  if (!to.set_pushes(g.tune_pushes_N_s)) throw InputError("--tune-pushes", 0, "tune-pushes", "expected three numbers (x y z) per push");
+  const GaitTuningResult tuned = tune_gait_controller(model, cpg, kin, contacts, o, to);
+  write_text_atomic(g.out + "_cpg_tuned.json", json_text(tuned.cpg.to_json(), 2) + "\n");
+  std::printf("%s\nwrote %s_cpg_tuned.json (reflex %.1f / %.2f, amplitude %.3f)\n", tuned.summary.BriefReport().c_str(), g.out.c_str(),
+              tuned.cpg.controller->reflex_kp, tuned.cpg.controller->reflex_kv, tuned.cpg.amplitude);
+  if (o.duration_s > to.horizon_s + 1e-9) {
+    char w[200];
+    std::snprintf(w, sizeof w, "tuned to walk %g s (--tune-horizon) and walking %g s (--duration): a tuned controller walks its horizon, not necessarily beyond",
+                  to.horizon_s, o.duration_s);
+    print_warnings({w});
+  }
+  return tuned.cpg;
+}
+
 void run_gait(const GaitArgs& g) {
   const OsimReadResult mr = read_muscle_model(g.model, g.generic_model);
   const Model& model = mr.model;
@@ -224,18 +244,7 @@ void run_gait(const GaitArgs& g) {
                 contacts.ground_velocity_m_s.norm() > 0 ? " (a treadmill)" : "");
   }
   if (!fs::path(g.out).parent_path().empty()) ensure_directory(fs::path(g.out).parent_path().string());
-  CpgModel driving = cpg;
-  if (g.tune > 0) {
-    GaitTuningOptions to = g.tuning;
-    to.evaluations = g.tune;
-    to.foot_spheres = foot_spheres;
-    if (!to.set_pushes(g.tune_pushes_N_s)) throw InputError("--tune-pushes", 0, "tune-pushes", "expected three numbers (x y z) per push");
-    const GaitTuningResult tuned = tune_gait_controller(model, cpg, kin, contacts, o, to);
-    driving = tuned.cpg;
-    write_text_atomic(g.out + "_cpg_tuned.json", json_text(driving.to_json(), 2) + "\n");
-    std::printf("%s\nwrote %s_cpg_tuned.json (reflex %.1f / %.2f, amplitude %.3f)\n", tuned.summary.BriefReport().c_str(), g.out.c_str(),
-                driving.controller->reflex_kp, driving.controller->reflex_kv, driving.amplitude);
-  }
+  CpgModel driving = g.tune > 0 ? tune_in_cli(g, model, cpg, kin, contacts, o, foot_spheres) : cpg;
   if (!driving.speed_schedule.empty()) {
     driving = scheduled_at_speed(driving, o.speed);
     std::printf("controller scheduled at speed knob %.3f from the %zu tuned knobs (amplitude %.3f)\n", o.speed,
@@ -268,7 +277,8 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
                    "balance feedback's gains (trunk on the stance hip, swing-foot placement), this many simulations on every core; "
                    "writes PREFIX_cpg_tuned.json, which --cpg then replays")
       ->check(CLI::Range(0, 5000));
-  gait->add_option("--tune-horizon", g->tuning.horizon_s, "simulated time per tuning candidate, s")->check(CLI::Range(0.5, 30.0))->capture_default_str();
+  gait->add_option("--tune-horizon", g->tuning.horizon_s,
+                   "simulated time per tuning candidate, s (a tuned controller walks its horizon, not necessarily beyond: below --duration, a warning)")->check(CLI::Range(0.5, 30.0))->capture_default_str();
   gait->add_option("--tune-rounds", g->tuning.rounds, "CMA-ES restarts from the last best, horizons rising evenly to --tune-horizon")
       ->check(CLI::Range(1, 10))
       ->capture_default_str();

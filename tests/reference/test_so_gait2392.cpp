@@ -547,8 +547,12 @@ TEST(CpgGait2392, PipelineDefaultsTuneSpeedKnobsThatEachWalk10s) {
   std::printf("[ info ] knob 1: %s\n[ info ] schedule: %s\n", tuning["walked_s"].dump().c_str(), tuning["schedule"].dump().c_str());
   EXPECT_TRUE(gait["fell_at_s"].is_null()) << gait["fell_at_s"];
   EXPECT_GE(gait["simulated_s"].get<double>(), 10.0);
+  // Every knob tuned to walk as long as the stage's walks (no tune_horizon_s).
+  const double horizon_s = tuning["horizon_s"].get<double>();
+  EXPECT_EQ(horizon_s, gait["simulated_s"].get<double>());
+  EXPECT_EQ(tuning["walked_s"][1].get<double>(), horizon_s) << tuning.dump();
   ASSERT_EQ(tuning["schedule"].size(), 2u);
-  for (const nlohmann::json& entry : tuning["schedule"]) EXPECT_EQ(entry["walked_s"][1].get<double>(), 10.0) << entry.dump();
+  for (const nlohmann::json& entry : tuning["schedule"]) EXPECT_EQ(entry["walked_s"][1].get<double>(), horizon_s) << entry.dump();
   // 1.2: the schedule so far (knob 1's controller) already walks there, and is kept.
   EXPECT_TRUE(tuning["schedule"][1]["kept_start"].get<bool>());
   EXPECT_EQ(tuning["schedule"][1]["simulations"].get<int>(), 1);

@@ -430,6 +430,9 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_FALSE(gait["pelvis_residuals"].get<bool>());
   // On its own it walks (or tries to) the trial's length and at least 10 s: the walker falls sooner.
   EXPECT_TRUE(gait["simulated_s"].get<double>() >= 10.0 - 1e-9 || !gait["fell_at_s"].is_null()) << gait.dump();
+  // Tuned to walk 1 s of those 10: the summary says so.
+  EXPECT_EQ(gait["tuning"]["horizon_s"].get<double>(), 1.0);
+  EXPECT_NE(gait["warnings"].dump().find("tuned to walk 1 s (tune_horizon_s) and the walks last 10 s"), std::string::npos) << gait["warnings"];
   // Without residuals the walk is taken again at the default check tolerances; each is the walk the
   // CLI replays at that tolerance (as long, falling at the same time).
   ASSERT_EQ(gait["tolerance_check"].size(), 2u) << gait.dump();
@@ -509,8 +512,11 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   // records five, and a replay stands on five unless told otherwise.
   EXPECT_EQ(tuned["controller"]["foot_spheres"].get<int>(), 2);
   const CliRun five = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
-                          "/out/w_ik.mot --duration 0.5 --foot-spheres 5 --tune 2 --tune-horizon 0.5 -o " + dir + "/k5");
+                          "/out/w_ik.mot --duration 0.6 --foot-spheres 5 --tune 2 --tune-horizon 0.5 -o " + dir + "/k5");
   ASSERT_EQ(five.status, 0) << five.output;
+  // Walked longer than it was tuned to walk: a warning (none where the two are alike, above).
+  EXPECT_NE(five.output.find("tuned to walk 0.5 s (--tune-horizon) and walking 0.6 s (--duration)"), std::string::npos) << five.output;
+  EXPECT_EQ(retune.output.find("--tune-horizon"), std::string::npos) << retune.output;
   EXPECT_EQ(nlohmann::json::parse(cpgait::text::read_file(dir + "/k5_cpg_tuned.json"))["controller"]["foot_spheres"].get<int>(), 5);
   const CliRun on_five = run("gait --model " + model + " --cpg " + dir + "/k5_cpg_tuned.json --kinematics " + dir + "/out/w_ik.mot --duration 0.2 -o " + dir + "/on5");
   const CliRun on_two = run("gait --model " + model + " --cpg " + dir + "/k5_cpg_tuned.json --kinematics " + dir +
@@ -601,6 +607,23 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   std::ofstream(dir + "/bad_feet.json") << R"({"gait": {"foot_spheres": 3}})";
   const CliRun bad_feet = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_feet.json -o " + dir + "/bad_feet");
   expect_refused(bad_feet, 2, "gait.foot_spheres");
+  fs::remove_all(dir);
+}
+
+// Without tune_horizon_s the stage tunes its controller to walk as long as its walks last: a tuned
+// controller walks its horizon, not necessarily beyond (tuned to 10 s, subject01's fell 0.3-17 s
+// after it: docs/gait-tuning.md).
+TEST(Cli, GaitStageTunesToTheWalksLengthByDefault) {
+  const std::string dir = cpgait::refdata::temp_dir("cli_tune_horizon");
+  const std::string model = cpgait::refdata::fixture("models/walker.osim");
+  ASSERT_EQ(run("synth --model " + model + " --duration 2 -o " + dir + "/w.trc").status, 0);
+  std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 4, "duration_s": 0.6, "speed_knobs": [], "check_tolerances": [],
+                                              "foot_spheres": 2}})";
+  const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json gait = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_gait.json"));
+  EXPECT_EQ(gait["tuning"]["horizon_s"].get<double>(), 0.6) << gait["tuning"].dump();
+  EXPECT_EQ(gait["warnings"].dump().find("tune_horizon_s"), std::string::npos) << gait["warnings"];
   fs::remove_all(dir);
 }
 

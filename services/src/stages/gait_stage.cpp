@@ -21,7 +21,7 @@ struct GaitStageOptions {
   bool residuals = false;
   bool phase_reference = true;
   int tune_evaluations = 600;
-  double tune_horizon_s = 10.0;
+  std::optional<double> tune_horizon_s;  // absent: the walk's duration
   int tune_rounds = 3;
   int tune_population = 0;
   int tune_restarts = 3;
@@ -69,8 +69,10 @@ struct GaitStageOptions {
             .integer("tune_evaluations", &GaitStageOptions::tune_evaluations, 0, 5000,
                      "tune the controller to walk without residuals first: CMA-ES over the reflex and balance gains and the CPG's amplitude, this "
                      "many simulations in parallel (0: no tuning); the tuned CPG is written to _cpg_tuned.json and drives the gait")
-            .number("tune_horizon_s", &GaitStageOptions::tune_horizon_s, "s", "simulated time per tuning candidate",
-                    NumberRange{0.5, 30.0, true})
+            .optional_number("tune_horizon_s", &GaitStageOptions::tune_horizon_s, "s",
+                             "simulated time per tuning candidate; absent: the walk's (duration_s). A tuned controller walks its "
+                             "horizon, not necessarily beyond: shorter than the walk, a warning",
+                             NumberRange{0.5, 30.0, true})
             .integer("tune_rounds", &GaitStageOptions::tune_rounds, 1, 10,
                      "CMA-ES restarts, each from the last best, their horizons rising evenly to tune_horizon_s")
             .integer("tune_population", &GaitStageOptions::tune_population, 0, 200,
@@ -220,10 +222,10 @@ constexpr double kTuningProgressShare = 0.95;
 // The stage's tuning: the controller at knob 1, then (schedule_evaluations) a schedule entry at each
 // speed knob; the tuned CPG to _cpg_tuned.json. Returns the summary's "tuning".
 nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel& driving, const Storage& reference, const ContactSet& feet,
-                              const ReproducedGaitOptions& go, const GaitStageOptions& o) {
+                              const ReproducedGaitOptions& go, const GaitStageOptions& o, double horizon_s) {
   GaitTuningOptions to;
   to.evaluations = o.tune_evaluations;
-  to.horizon_s = o.tune_horizon_s;
+  to.horizon_s = horizon_s;
   to.rounds = o.tune_rounds;
   to.population = o.tune_population;
   to.restarts = o.tune_restarts;
@@ -326,13 +328,19 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     go.integrator = *w_method_named(o.integrator);  // the option's choices are the methods' names
     // A CPG fitted to CMC's excitations drives compliant-tendon muscles, as CMC's did (the seed method).
     go.compliant_tendons = trial.products.find<ComputedMuscleControlResult>() != nullptr;
-    CpgModel driving = cpg->model;
-    const nlohmann::json tuning = o.tune_evaluations > 0 ? tune_for_stage(trial, model, driving, reference, feet, go, o) : nlohmann::json();
-    driving = scheduled_at_speed(driving, go.speed);  // a tuned CPG walks as it was tuned at this knob
-    if (driving.controller) go = with_controller(*driving.controller, go);
     // Walking on its own, as long as the trial and at least 10 s (issue 22); held by residuals, which
     // need the trial's pelvis, what the trial has.
-    if (!o.duration_s && !go.pelvis_residuals) go.duration_s = std::max(10.0, available);
+    const double own_walk_s = o.duration_s ? *o.duration_s : std::max(10.0, available);
+    // A tuned controller walks without residuals, tuned by default to walk as long as it will: tuned to
+    // 10 s, subject01's controllers fell 0.3-17 s after it over six seeds (docs/gait-tuning.md).
+    // At most 30 s (the option's bound): a long trial's walk would make each candidate as long.
+    const double horizon_s = o.tune_horizon_s.value_or(std::min(own_walk_s, 30.0));
+    CpgModel driving = cpg->model;
+    const nlohmann::json tuning =
+        o.tune_evaluations > 0 ? tune_for_stage(trial, model, driving, reference, feet, go, o, horizon_s) : nlohmann::json();
+    driving = scheduled_at_speed(driving, go.speed);  // a tuned CPG walks as it was tuned at this knob
+    if (driving.controller) go = with_controller(*driving.controller, go);
+    if (!go.pelvis_residuals) go.duration_s = own_walk_s;
     // The walks: this one, then the tolerance check's and the speed knobs'.
     const bool check = !go.pelvis_residuals && !o.check_tolerances.empty();
     const double walks = 1.0 + (check ? static_cast<double>(o.check_tolerances.size()) : 0.0) + static_cast<double>(o.speed_knobs.size());
@@ -350,6 +358,9 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     summary["control_interval_s"] = go.control_interval_s;
     summary["integrator"] = o.integrator;
     if (!tuning.is_null()) summary["tuning"] = tuning;
+    if (!tuning.is_null() && horizon_s < go.duration_s - 1e-9)
+      summary["warnings"].push_back("the controller was tuned to walk " + number_text(horizon_s) + " s (tune_horizon_s) and the walks last " +
+                                    number_text(go.duration_s) + " s: a tuned controller walks its horizon, not necessarily beyond");
     nlohmann::json radius = nlohmann::json::object();
     for (std::size_t s = 0; s < feet.spheres.size(); ++s) radius[feet.spheres[s].name] = fit.radius_change_m[s] * 1000;
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
