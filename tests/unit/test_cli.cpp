@@ -612,17 +612,20 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
 
 // Without tune_horizon_s the stage tunes its controller to walk as long as its walks last: a tuned
 // controller walks its horizon, not necessarily beyond (tuned to 10 s, subject01's fell 0.3-17 s
-// after it: docs/gait-tuning.md).
+// after it: docs/gait-tuning.md). The drift's weight reaches the tuning.
 TEST(Cli, GaitStageTunesToTheWalksLengthByDefault) {
   const std::string dir = cpgait::refdata::temp_dir("cli_tune_horizon");
   const std::string model = cpgait::refdata::fixture("models/walker.osim");
   ASSERT_EQ(run("synth --model " + model + " --duration 2 -o " + dir + "/w.trc").status, 0);
   std::ofstream(dir + "/options.json") << R"({"gait": {"tune_evaluations": 4, "duration_s": 0.6, "speed_knobs": [], "check_tolerances": [],
-                                              "foot_spheres": 2}})";
+                                              "foot_spheres": 2, "tune_drift_weight": 2}})";
   const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json gait = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_gait.json"));
   EXPECT_EQ(gait["tuning"]["horizon_s"].get<double>(), 0.6) << gait["tuning"].dump();
+  // The drift's weight reaches the tuning; the walk, shorter than two of the walker's cycles, has none.
+  EXPECT_EQ(gait["tuning"]["drift_weight"].get<double>(), 2.0);
+  EXPECT_EQ(gait["drift_rad"].get<double>(), 0.0);
   EXPECT_EQ(gait["warnings"].dump().find("tune_horizon_s"), std::string::npos) << gait["warnings"];
   fs::remove_all(dir);
 }

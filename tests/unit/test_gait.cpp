@@ -464,6 +464,36 @@ TEST(ReproducedGait, PushMovesTheCentreOfMassByItsImpulse) {
   EXPECT_LT((pushed.q.row(before) - free.q.row(before)).cwiseAbs().maxCoeff(), 1e-12);
 }
 
+// A walk's drift, on walks made up here (1 s cycles, samples every 10 ms, 4 s): the pelvis swaying and
+// yawing once a cycle on a belt at 1.2 m/s drifts 0, straight or at an angle; turned after 2.5 s by
+// atan(0.1) to a side and yawed 0.05 rad, it drifts atan(0.1) + 0.05 (the cycles compared are 1-2 s
+// and 3-4 s). Walking along -x, a turn across the direction's branch cut is the same small turn.
+// Shorter than two cycles, or without the pelvis' horizontal position: 0.
+TEST(ReproducedGait, DriftIsTheTurnOfTheWalksDirectionAndYawFromItsMiddleToItsEnd) {
+  std::vector<double> t;
+  for (int i = 0; i <= 400; ++i) t.push_back(0.01 * i);
+  const int yaw = 0, tx = 1, tz = 2;
+  auto walk = [&](double direction_x, double lateral_m_s, double turn_lateral_m_s, double turn_yaw_rad) {
+    Eigen::MatrixXd q(static_cast<Eigen::Index>(t.size()), 3);
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const double after = std::max(0.0, t[i] - 2.5), sway = std::sin(2 * M_PI * t[i]);
+      q.row(static_cast<Eigen::Index>(i)) << 0.1 * sway + (after > 0 ? turn_yaw_rad : 0.0), 0.3 + 0.02 * sway * direction_x,
+          0.05 * sway + lateral_m_s * t[i] + turn_lateral_m_s * after;
+    }
+    return q;
+  };
+  const Eigen::Vector2d belt(-1.2, 0), back_belt(1.2, 0);
+  EXPECT_LT(walk_drift_rad(t, walk(1, 0, 0, 0), yaw, tx, tz, belt, 1.0), 1e-12);
+  EXPECT_LT(walk_drift_rad(t, walk(1, 0.3, 0, 0), yaw, tx, tz, belt, 1.0), 1e-12);
+  EXPECT_NEAR(walk_drift_rad(t, walk(1, 0, -0.12, 0.05), yaw, tx, tz, belt, 1.0), std::atan(0.1) + 0.05, 1e-12);
+  EXPECT_NEAR(walk_drift_rad(t, walk(1, 0, 0.12, -0.05), yaw, tx, tz, belt, 1.0), std::atan(0.1) + 0.05, 1e-12);
+  EXPECT_NEAR(walk_drift_rad(t, walk(-1, -0.01, 0.02, 0), yaw, tx, tz, back_belt, 1.0), std::atan(0.01 / 1.2) + std::atan(0.01 / 1.2), 1e-12);
+  EXPECT_EQ(walk_drift_rad(t, walk(1, 0, 0.12, 0.05), yaw, tx, tz, belt, 2.01), 0.0);
+  EXPECT_EQ(walk_drift_rad(t, walk(1, 0, 0.12, 0.05), yaw, tx, -1, belt, 1.0), 0.0);
+  // Without a yaw coordinate, the direction alone.
+  EXPECT_NEAR(walk_drift_rad(t, walk(1, 0, -0.12, 0.05), -1, tx, tz, belt, 1.0), std::atan(0.1), 1e-12);
+}
+
 // The ground's step: the ground is step_height_m higher past its edge, the edge carried by the belt.
 TEST(ContactSet, StepEdgeRidesOnTheBelt) {
   ContactSet set;
@@ -719,6 +749,21 @@ TEST(GaitTuning, GroundStepsAndTheRotationBoundEnterTheCost) {
   tight.worst_rotation_limit_deg = 1e-6;
   EXPECT_NEAR(q.tune(loose).summary.start_cost, level, 1e-12);
   EXPECT_GT(q.tune(tight).summary.start_cost, level + q.t.fall_weight);
+}
+
+// The drift enters the cost in proportion to its weight (the still walker's start over two of its
+// cycles, where its pelvis moves while it sags).
+TEST(GaitTuning, DriftEntersTheCostByItsWeight) {
+  QuickTuning q(2);
+  q.t.horizon_s = 2.2 * q.w.cpg.cycle_s;
+  q.o.fall_height_fraction = -1e9;
+  GaitTuningOptions once = q.t, twice = q.t;
+  once.drift_weight = 1;
+  twice.drift_weight = 2;
+  const double none = q.tune(q.t).summary.start_cost, with_once = q.tune(once).summary.start_cost;
+  EXPECT_GT(with_once, none + 1e-6);
+  EXPECT_NEAR(q.tune(twice).summary.start_cost - none, 2 * (with_once - none), 1e-12);
+  std::printf("[info] the still walker's drift over %.2f s: %.3g rad\n", q.t.horizon_s, with_once - none);
 }
 
 // A walk -> stand trial counts its fall alone: the still walker, which stands through 0.3 s, adds

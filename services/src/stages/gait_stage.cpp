@@ -28,6 +28,7 @@ struct GaitStageOptions {
   double tune_budget_simulated_s = 0;
   int tune_seed = 1;
   double tune_rotation_limit_deg = 4.5;
+  double tune_drift_weight = 0;  // at 1, longer walkers past the horizon, subject01's run slower (docs/gait-tuning.md)
   bool tune_entrainment = false;
   int foot_spheres = 5;
   std::vector<double> tune_steps_m, tune_pushes_N_s, tune_tolerances;
@@ -96,6 +97,9 @@ struct GaitStageOptions {
             .number("tune_rotation_limit_deg", &GaitStageOptions::tune_rotation_limit_deg, "deg",
                     "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (RMS) costs as much as a fall (0: no bound)",
                     NumberRange{0.0, 90.0})
+            .number("tune_drift_weight", &GaitStageOptions::tune_drift_weight, "1/rad",
+                    "tuning: cost per rad of a walk's drift (its cycle-mean direction and pelvis yaw, middle cycle to last): walkers "
+                    "that drift within the horizon fall soon after it (0: not counted; docs/gait-tuning.md)", NumberRange{0.0, 100.0})
             .number_list("tune_steps_m", &GaitStageOptions::tune_steps_m, "m",
                          "tuning: ground steps (negative: down) each candidate also walks over, the edge under the pelvis at each of "
                          "tune_step_at; their walks count in the cost as the level one's does",
@@ -149,7 +153,7 @@ std::string number_text(double x) {
 // How long a walk lasted and where it fell (null: it did not), as both kinds of further walk report it.
 nlohmann::json walk_outcome(const ReproducedGaitResult& g) {
   return {{"simulated_s", g.time_s.empty() ? 0.0 : g.time_s.back()},
-          {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)}};
+          {"fell_at_s", g.fell_at_s >= 0 ? nlohmann::json(g.fell_at_s) : nlohmann::json(nullptr)}, {"drift_rad", g.drift_rad}};
 }
 
 // The stage's walks after its tunings, each an equal part of the progress left.
@@ -232,6 +236,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.restart_budget_s = o.tune_budget_simulated_s;
   to.seed = static_cast<unsigned long long>(o.tune_seed);
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
+  to.drift_weight = o.tune_drift_weight;
   to.tune_entrainment = o.tune_entrainment;
   to.foot_spheres = o.foot_spheres;
   to.ground_steps_m = o.tune_steps_m;
@@ -261,7 +266,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
                            {"budget_simulated_s", o.tune_budget_simulated_s}, {"restarts_skipped", tuned.summary.restarts_skipped},
                            {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"entrainment", o.tune_entrainment},
+                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"drift_weight", to.drift_weight}, {"entrainment", o.tune_entrainment},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   for (double knob : knobs) {

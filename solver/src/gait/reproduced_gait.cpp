@@ -656,6 +656,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.speed_m_s = r.stride_length_m / r.stride_time_s;
   }
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
+  r.drift_rad = walk_drift_rad(r.time_s, r.q, model.coordinate_index("pelvis_rotation"), tx, tz, belt,
+                               cpg_in.cycle_s / (cpg_in.speed * o.speed));
   if (hs.size() >= 2) {
     const ContactPhases p = contact_phases(r.time_s, load[0], load[1], hs.front(), hs.back());
     r.stance_percent_r = p.stance_percent[0], r.stance_percent_l = p.stance_percent[1], r.double_support_percent = p.double_support_percent;
@@ -692,6 +694,27 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   }
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return r;
+}
+
+double walk_drift_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, int yaw, int tx, int tz, const Eigen::Vector2d& belt_xz_m_s,
+                      double cycle_s) {
+  const int ns = static_cast<int>(time_s.size());
+  if (ns < 2 || tx < 0 || tz < 0 || !(cycle_s > 0) || time_s.back() / 2 < cycle_s) return 0;
+  // The direction of travel over the belt and the mean yaw over the cycle ending at t1.
+  auto direction_and_yaw = [&](double t1) {
+    const double t0 = t1 - cycle_s;
+    auto at = [&](double t) {
+      const auto i = static_cast<Eigen::Index>(std::lower_bound(time_s.begin(), time_s.end(), t - 1e-9) - time_s.begin());
+      return std::min<Eigen::Index>(i, ns - 1);
+    };
+    const Eigen::Index i0 = at(t0), i1 = at(t1);
+    const Eigen::Vector2d d = Eigen::Vector2d(q(i1, tx) - q(i0, tx), q(i1, tz) - q(i0, tz)) - belt_xz_m_s * (time_s[i1] - time_s[i0]);
+    const double mean_yaw = yaw >= 0 ? q.col(yaw).segment(i0, i1 - i0 + 1).mean() : 0.0;
+    return Eigen::Vector2d(std::atan2(-d.y(), d.x()), mean_yaw);
+  };
+  Eigen::Vector2d change = direction_and_yaw(time_s.back()) - direction_and_yaw(time_s.back() / 2);
+  change[0] = std::remainder(change[0], 2 * M_PI);  // a turn through the direction's branch cut
+  return change.cwiseAbs().sum();
 }
 
 double reproduced_gait_begin_s(const CpgModel& cpg, double reference_front_s, double reference_end_s, const ReproducedGaitOptions& o) {
@@ -786,6 +809,7 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   j["stride_length_m"] = r.stride_length_m;
   j["speed_m_s"] = r.speed_m_s;
   j["distance_m"] = r.distance_m;
+  j["drift_rad"] = r.drift_rad;
   j["contact_phases"] = reproduced_gait_contact_phases(r);
   if (r.entrainment.share > 0)
     j["entrainment"] = {{"share", r.entrainment.share}, {"phase_r", r.entrainment.phase_r}, {"phase_l", r.entrainment.phase_l}, {"resets", r.entrainment_resets}};

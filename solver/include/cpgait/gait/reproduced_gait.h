@@ -164,6 +164,12 @@ struct ReproducedGaitResult {
   double mean_residual_moment_Nm = 0;
   double fell_at_s = -1;                        // < 0: did not fall
   double distance_m = 0;                        // pelvis horizontal travel
+  // How far the walk's cycle-mean walking direction (over the belt) and pelvis yaw moved from the
+  // cycle that ends halfway through it to its last cycle, the two summed (rad; 0 for a walk shorter
+  // than two cycles or a model without pelvis_tx and pelvis_tz; no yaw without pelvis_rotation). A
+  // walk settled on its limit cycle
+  // keeps both, straight or not; subject01's tuned walkers that drifted fell soon after (docs/gait-tuning.md).
+  double drift_rad = 0;
   // The CPG's entrainment (ReproducedGaitOptions::entrainment), and the touchdowns that reset its phase.
   PhaseResettingOptions entrainment;
   int entrainment_resets = 0;
@@ -183,6 +189,12 @@ struct ReproducedGaitResult {
   double real_time_factor() const { return solve_seconds > 0 && !time_s.empty() ? (time_s.back() - resumed_at_s) / solve_seconds : 0; }
   std::string BriefReport() const;
 };
+
+// ReproducedGaitResult::drift_rad of a walk sampled at time_s (from 0, rising), q its coordinates (rows:
+// samples; yaw, tx, tz: the columns of the pelvis' yaw (rad; < 0: none) and horizontal position (m)),
+// on a ground moving at belt_xz_m_s (m/s, ground x and z), its gait cycle cycle_s long (s).
+double walk_drift_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, int yaw, int tx, int tz, const Eigen::Vector2d& belt_xz_m_s,
+                      double cycle_s);
 
 // Where in the reference (s) a simulation with these options begins: begin_time_s if given, else the
 // heel strike plus the CPG's start phase, or earlier where the reference would end before duration_s.

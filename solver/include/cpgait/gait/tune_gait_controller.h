@@ -7,6 +7,7 @@
 // tolerance; walk -> stand trials, scored by their falls alone), each scored by
 //   (horizon - time walked) / horizon * fall_weight + tracking_weight * (mean + worst rotation RMS, rad)
 //   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|
+//   + drift_weight * drift (rad)
 //   (+ fall_weight * the worst rotation's excess over a bound, relative to it, when one is set)
 // and the candidate by their mean: the falls first, then the deviation from the trial's cycle, then
 // effort. The simulations run in parallel; the starting controller (the CPG's, else the defaults) is
@@ -34,6 +35,9 @@ struct GaitTuningOptions {
   // cost per unit of relative stride-time error against the CPG's cycle / speed (default 1): the
   // balance feedback's steps entrain the CPG, and untaxed they shortened subject01's stride by 11 %.
   double stride_weight = 1.0;
+  // cost per rad of the walk's drift (ReproducedGaitResult::drift_rad) (default 0): the other terms
+  // see only the horizon, and walkers that drift within it fall soon after it (docs/gait-tuning.md).
+  double drift_weight = 0.0;
   // A bound on the worst rotation's tracking RMS (deg; 0: none, the default): beyond it a walk costs
   // fall_weight per bound's worth of excess, as much as falling at once. Tuned over ground steps
   // without it, subject01's hip_rotation_l drifted to 6.1 deg (measured).
