@@ -656,8 +656,9 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.speed_m_s = r.stride_length_m / r.stride_time_s;
   }
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
-  r.drift_rad = walk_drift_rad(r.time_s, r.q, model.coordinate_index("pelvis_rotation"), tx, tz, belt,
-                               cpg_in.cycle_s / (cpg_in.speed * o.speed));
+  if (frozen_at_s < 0)  // a walk that stopped has no direction to keep, and its belt slowed
+    r.drift_rad = walk_drift_rad(r.time_s, r.q, model.coordinate_index("pelvis_rotation"), tx, tz, belt,
+                                 cpg_in.cycle_s / (cpg_in.speed * o.speed));
   if (hs.size() >= 2) {
     const ContactPhases p = contact_phases(r.time_s, load[0], load[1], hs.front(), hs.back());
     r.stance_percent_r = p.stance_percent[0], r.stance_percent_l = p.stance_percent[1], r.double_support_percent = p.double_support_percent;

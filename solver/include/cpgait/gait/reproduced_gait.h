@@ -166,9 +166,9 @@ struct ReproducedGaitResult {
   double distance_m = 0;                        // pelvis horizontal travel
   // How far the walk's cycle-mean walking direction (over the belt) and pelvis yaw moved from the
   // cycle that ends halfway through it to its last cycle, the two summed (rad; 0 for a walk shorter
-  // than two cycles or a model without pelvis_tx and pelvis_tz; no yaw without pelvis_rotation). A
-  // walk settled on its limit cycle
-  // keeps both, straight or not; subject01's tuned walkers that drifted fell soon after (docs/gait-tuning.md).
+  // than two cycles, a walk that stopped (stop_time_s) or a model without pelvis_tx and pelvis_tz; no
+  // yaw without pelvis_rotation). A walk settled on its limit cycle keeps both, straight or not;
+  // subject01's tuned walkers that drifted fell soon after (docs/gait-tuning.md).
   double drift_rad = 0;
   // The CPG's entrainment (ReproducedGaitOptions::entrainment), and the touchdowns that reset its phase.
   PhaseResettingOptions entrainment;
