@@ -6,6 +6,7 @@
 #include <random>
 
 #include "cpgait/activation/computed_muscle_control.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/ik_setup.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/dynamics/forward_dynamics.h"
@@ -16,6 +17,7 @@
 #include "cpgait/ik/inverse_kinematics.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
+#include "pipeline.h"
 
 using namespace cpgait;
 
@@ -183,3 +185,49 @@ static void BM_ReproducedGaitSubject01(benchmark::State& state) {
 // Args: 0 rigid tendons with residuals, 1 compliant tendons, 2 the closed loop without residuals, 3 the
 // same with ROS2 at a 1 ms controller interval (the defaults before ROS34PW2 at 2.5 ms).
 BENCHMARK(BM_ReproducedGaitSubject01)->Unit(benchmark::kSecond)->Iterations(2)->Arg(0)->Arg(1)->Arg(2)->Arg(3);
+
+// The autonomous gait on gait10dof18musc (planar, 18 Millard muscles, rigid tendons), one thread: the
+// controller the pipeline's gait stage tunes (here in 120 simulations, about 20 s on 2 cores before
+// timing; it walks 10 s) replayed for 10 s as `cpgait gait` replays it. Counter: simulated seconds
+// per wall-clock second (issue 22's target: 30).
+static void BM_ReproducedGaitGait10dof18musc(benchmark::State& state) {
+  const std::string d = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait10dof18musc/";
+  if (!std::filesystem::exists(d + "OutputReference/subject01.osim") || !std::filesystem::exists(d + "IK/walk_Setup_IK.xml")) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait10dof18musc");
+    return;
+  }
+  services::TrialInputs in;
+  in.name = "walk";
+  in.model_path = d + "OutputReference/subject01.osim";
+  in.markers = text::read_file(d + "ExperimentalData/subject01_walk.trc"), in.markers_name = "subject01_walk.trc";
+  in.grf = text::read_file(d + "ExperimentalData/subject01_walk_grf.mot"), in.grf_name = "subject01_walk_grf.mot";
+  in.loads = text::read_file(d + "ExperimentalData/subject01_walk_grf.xml"), in.loads_name = "subject01_walk_grf.xml";
+  services::PipelineOptions options = services::PipelineOptions::from_json(
+      nlohmann::json::parse(R"({"gait": {"residuals": false, "phase_reference": true, "tune_evaluations": 120, "tune_horizon_s": 10,
+        "tune_rounds": 1, "duration_s": 10, "foot_spheres": 2, "tune_restarts": 0, "tune_rotation_limit_deg": 0, "tune_stop_at": [],
+        "speed_knobs": [], "check_tolerances": []}})"),
+      "bench");
+  options.set_stage_option("ik", "tasks", nlohmann::json::parse(ik_tasks_json(read_ik_tasks(d + "IK/walk_Setup_IK.xml"))), "bench");
+  const std::string out = (std::filesystem::temp_directory_path() / "cpgait_bench_gait10dof").string();
+  services::run_pipeline(in, options, out);
+  const Model m = read_osim(in.model_path).model;
+  const CpgModel cpg = CpgModel::from_json(nlohmann::json::parse(text::read_file(out + "/walk_cpg_tuned.json")), "walk_cpg_tuned.json");
+  const Storage kin = read_storage(out + "/walk_ik.mot");
+  std::filesystem::remove_all(out);
+  // As `cpgait gait` replays it: the controller's feet fitted to the trial's, its gains and start.
+  ContactSet feet = default_foot_contacts(m, cpg.controller->foot_spheres);
+  const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
+  fit_foot_spheres_to_trial(m, feet, k.recorded_time_s, k.q_recorded);
+  ReproducedGaitOptions o = with_controller(*cpg.controller, ReproducedGaitOptions{});
+  o.pelvis_residuals = false;
+  o.duration_s = 10;
+  double simulated = 0, fell = 0;
+  for (auto _ : state) {
+    const ReproducedGaitResult r = reproduce_gait(m, cpg, kin, feet, o);
+    simulated += r.time_s.back();
+    fell += r.fell_at_s >= 0;
+  }
+  state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
+  state.counters["falls"] = fell;
+}
+BENCHMARK(BM_ReproducedGaitGait10dof18musc)->Unit(benchmark::kSecond)->Iterations(3);
