@@ -418,7 +418,7 @@ void add_gait_command(CLI::App& app) {
       gait->add_option("--integrator", g->options.integrator,
                        "ros34pw2 (third-order Rosenbrock-W; the default) or rosenbrock (ROS2, second order: the walks before ros34pw2 "
                        "became the default, with --control-interval 0.001); default: the one the CPG's controller was tuned in")
-          ->transform(CLI::CheckedTransformer(std::map<std::string, WMethod>{{"ros34pw2", WMethod::kRos34pw2}, {"rosenbrock", WMethod::kRos2}}));
+          ->transform(CLI::CheckedTransformer(std::map<std::string, WMethod>{{w_method_name(WMethod::kRos34pw2), WMethod::kRos34pw2}, {w_method_name(WMethod::kRos2), WMethod::kRos2}}));
   gait->add_flag("--compliant-tendons", g->options.compliant_tendons,
                  "compliant tendons (OpenSim's Thelen2003Muscle; suits a CPG fitted to CMC excitations). Default: rigid, as static "
                  "optimization assumes");

@@ -494,6 +494,25 @@ TEST(ReproducedGait, DriftIsTheTurnOfTheWalksDirectionAndYawFromItsMiddleToItsEn
   EXPECT_NEAR(walk_drift_rad(t, walk(1, 0, -0.12, 0.05), -1, tx, tz, belt, 1.0), std::atan(0.1), 1e-12);
 }
 
+// A walk that stopped reports no drift (its belt slowed: it has no direction to keep). The still
+// walker over 2.2 of its cycles drifts while it sags; stopped at its first stop phase, the same walk
+// reports 0.
+TEST(ReproducedGait, AWalkThatStoppedReportsNoDrift) {
+  const StillWalker w;
+  ReproducedGaitOptions o;
+  o.start_time_s = 0.5;
+  o.duration_s = 2.2 * w.cpg.cycle_s;
+  o.fall_height_fraction = -1e9;
+  const ReproducedGaitResult walked = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+  ASSERT_LT(walked.frozen_at_s, 0.0);
+  EXPECT_GT(walked.drift_rad, 1e-6);
+  o.stop_time_s = 0.1;
+  const ReproducedGaitResult stopped = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+  ASSERT_GE(stopped.frozen_at_s, 0.0);
+  EXPECT_GT(stopped.time_s.back(), 2 * w.cpg.cycle_s);  // long enough to report a drift had it walked on
+  EXPECT_EQ(stopped.drift_rad, 0.0);
+}
+
 // The ground's step: the ground is step_height_m higher past its edge, the edge carried by the belt.
 TEST(ContactSet, StepEdgeRidesOnTheBelt) {
   ContactSet set;
