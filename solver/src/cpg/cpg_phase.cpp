@@ -48,15 +48,15 @@ double cpg_phase(const CpgPhaseTable& t, const MatsuokaState& state) {
   Eigen::RowVectorXd s(2 * R);
   s << state.x.head(R).transpose(), state.f.head(R).transpose();
   s = s.cwiseProduct(t.inv_range.transpose());
-  // The squared distance to every sample, summed column by column: each row's sum in the order of
-  // its own squaredNorm (the refinement below), vectorized across the samples.
+  // The squared distance to every sample, summed column by column (vectorized across the samples;
+  // each sum in a row's squaredNorm order, so that the nearest is the one it always was).
   Eigen::VectorXd d2 = Eigen::VectorXd::Zero(S);
   for (Eigen::Index j = 0; j < s.size(); ++j) d2.array() += (t.states.col(j).array() - s[j]).square();
   Eigen::Index k = 0;
   d2.minCoeff(&k);
   // Along the segment to the nearer neighbour: the projection's fraction.
   const Eigen::Index prev = (k + S - 1) % S, next = (k + 1) % S;
-  const bool forward = (t.states.row(next) - s).squaredNorm() <= (t.states.row(prev) - s).squaredNorm();
+  const bool forward = d2[next] <= d2[prev];
   const Eigen::Index a = forward ? k : prev, b = forward ? next : k;
   const Eigen::RowVectorXd seg = t.states.row(b) - t.states.row(a);
   const double len2 = seg.squaredNorm();
