@@ -6,8 +6,8 @@
 #include <random>
 
 #include "cpgait/activation/computed_muscle_control.h"
-#include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/ik_setup.h"
+#include "cpgait/capture/text_lines.h"
 #include "cpgait/capture/trc.h"
 #include "cpgait/dynamics/forward_dynamics.h"
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
