@@ -140,7 +140,7 @@ int Function::interval(double x) const {
   return std::clamp(i, 0, last);
 }
 
-double Function::second_derivative(double x) const {
+double Function::curve_second_derivative(double x) const {
   switch (kind_) {
     case Kind::kConstant:
     case Kind::kLinear:

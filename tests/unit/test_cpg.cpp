@@ -66,6 +66,50 @@ TEST(Matsuoka, SparseStepsFollowTheDenseOnes) {
   EXPECT_GT(dense.x.cwiseMax(0.0).maxCoeff(), 0.05);  // it oscillates, not rests
 }
 
+// The sparse inhibition skips the silent neurons (y = 0) and otherwise sums as Eigen's sparse product
+// does, so the rates are the same bits (rows of several inputs: another order would round otherwise).
+TEST(Matsuoka, SparseRatesSkipSilentNeuronsBitForBit) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  const int N = 60;
+  MatsuokaNetwork n;
+  n.tau_r_s = Eigen::VectorXd::NullaryExpr(N, [&] { return 0.02 + 0.1 * U(rng); });
+  n.tau_a_s = Eigen::VectorXd::NullaryExpr(N, [&] { return 0.3 + U(rng); });
+  n.b = Eigen::VectorXd::Constant(N, 2.5);
+  n.s = Eigen::VectorXd::Constant(N, 1.0);
+  n.a = Eigen::MatrixXd::Zero(N, N);
+  for (int i = 0; i < N; ++i)
+    for (int k = 0; k < 6; ++k) n.a(i, static_cast<int>(U(rng) * N) % N) = 3.0 * U(rng) / 7.0;
+  n.a.diagonal().setZero();
+  MatsuokaScratch w;
+  matsuoka_prepare(n, w);
+  MatsuokaState st;
+  st.x = Eigen::VectorXd::NullaryExpr(N, [&] { return U(rng) - 0.5; });
+  st.f = Eigen::VectorXd::NullaryExpr(N, [&] { return U(rng); });
+  const Eigen::VectorXd u = Eigen::VectorXd::NullaryExpr(N, [&] { return 0.1 * U(rng); });
+  MatsuokaState r;
+  matsuoka_rates(n, st, u, r, &w.a);
+  const Eigen::VectorXd y = st.x.cwiseMax(0.0);
+  const Eigen::VectorXd inhibition = w.a * y;
+  const Eigen::VectorXd x_rate = (n.s - st.x - n.b.cwiseProduct(st.f) - inhibition + u).cwiseQuotient(n.tau_r_s);
+  const Eigen::VectorXd f_rate = (y - st.f).cwiseQuotient(n.tau_a_s);
+  const int silent = static_cast<int>((y.array() == 0).count());
+  EXPECT_GT(silent, N / 4);
+  EXPECT_LT(silent, 3 * N / 4);
+  for (int i = 0; i < N; ++i) {
+    EXPECT_EQ(r.x[i], x_rate[i]) << i;
+    EXPECT_EQ(r.f[i], f_rate[i]) << i;
+  }
+  // Summed in another order (each row's inputs last to first), some sum differs in its last bits.
+  int reordered_differs = 0;
+  for (int i = 0; i < N; ++i) {
+    double sum = 0;
+    for (int j = N - 1; j >= 0; --j) sum += n.a(i, j) * y[j];
+    reordered_differs += sum != inhibition[i];
+  }
+  EXPECT_GT(reordered_differs, 0);
+}
+
 TEST(Nnls, MatchesKktConditions) {
   std::mt19937 rng(4);
   std::normal_distribution<double> g;

@@ -318,6 +318,65 @@ TEST(WrapCylinder, Arm26MomentArmsEqualMinusTheLengthsDerivative) {
   }
 }
 
+// The segments' pass (what an integrator's stages use) gives each path's length bit for bit as
+// current_path_length sums it, and its lengthening speed as dL/dq qd (muscle_path_geometry), on arm26
+// (wrapping) and gait2392 (moving and conditional points); no stretching segment lies on one body.
+TEST(MusclePath, SegmentsGiveTheLengthBitForBitAndTheSpeedOfTheMomentArms) {
+  const std::string gait2392 = refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim");
+  REQUIRE_REFERENCE(arm26());
+  REQUIRE_REFERENCE(gait2392);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  int paths = 0, wrapped = 0, moving = 0, skipped = 0;
+  double worst_speed = 0;
+  for (const std::string& file : {arm26(), gait2392}) {
+    const Model m = read_osim(file).model;
+    const int nq = m.num_coordinates();
+    KinematicsWorkspace<double> ws(m);
+    MotionSubspace S(m), S_speeds(m);
+    MusclePathGeometry g(m);
+    std::vector<Eigen::Matrix<double, 6, 1>> V(m.bodies.size());
+    Eigen::Matrix<double, 6, Eigen::Dynamic> S_rate(6, nq);
+    std::vector<PathVertex<double>> path;
+    std::vector<StretchingSegment> segments;
+    for (int trial = 0; trial < 50; ++trial) {
+      const Eigen::VectorXd q = refdata::random_pose(m, rng);
+      const Eigen::VectorXd qd = Eigen::VectorXd::NullaryExpr(nq, [&] { return noise(rng); });
+      forward_kinematics(m, q.data(), ws);
+      motion_subspace(m, q.data(), ws, S);
+      motion_subspace_and_rate(m, q.data(), qd.data(), ws, S_speeds, V, S_rate);
+      muscle_path_geometry(m, q.data(), qd.data(), ws, S, g);
+      for (std::size_t k = 0; k < m.muscles.size(); ++k) {
+        current_path(m, m.muscles[k], q.data(), ws, path);
+        const double length = current_path_segments(path, segments);
+        EXPECT_EQ(length, current_path_length(path)) << m.muscles[k].name;
+        EXPECT_NEAR(length, g.length_m[k], 1e-12) << m.muscles[k].name;
+        const double speed = current_path_lengthening_speed(path, segments, q.data(), qd.data(), ws, V);
+        const double expected = g.lengthening_speed_m_s[k];
+        worst_speed = std::max(worst_speed, std::abs(speed - expected) / (1.0 + std::abs(expected)));
+        for (const StretchingSegment& s : segments) {
+          const PathVertex<double>& u = path[s.u];
+          const PathVertex<double>& v = path[s.v];
+          const bool own = (u.point && u.point->kind == PathPoint::Kind::kMoving) || (v.point && v.point->kind == PathPoint::Kind::kMoving);
+          EXPECT_TRUE(u.body != v.body || own) << m.muscles[k].name;
+          EXPECT_EQ(s.d, v.x_ground - u.x_ground);
+          EXPECT_EQ(s.n, s.d.norm());
+          moving += own;
+        }
+        ++paths;
+        wrapped += path.size() > m.muscles[k].path.size();
+        skipped += static_cast<int>(path.size()) - 1 - static_cast<int>(segments.size());
+      }
+    }
+  }
+  std::printf("[info] %d paths (%d wrapped), %d segments skipped (on one body, over a surface), %d with a moving point: worst |speed - dL/dq qd| / (1 + |v|) %.1e\n",
+              paths, wrapped, skipped, moving, worst_speed);
+  EXPECT_LT(worst_speed, 1e-12);
+  EXPECT_GT(wrapped, 0);
+  EXPECT_GT(moving, 0);
+  EXPECT_GT(skipped, 0);
+}
+
 // Every model OpenSim's own tests and examples ship loads, in every document version, and nothing
 // among the components this issue calls for is reported unsupported.
 TEST(OsimReader, EveryReferenceModelLoads) {

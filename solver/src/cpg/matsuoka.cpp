@@ -34,8 +34,18 @@ void matsuoka_rates(const MatsuokaNetwork& n, const MatsuokaState& st, const Eig
   r.x.resize(N);
   r.f.resize(N);
   r.f = st.x.cwiseMax(0.0);
-  if (sparse_a) r.x.noalias() = *sparse_a * r.f;
-  else r.x.noalias() = n.a * r.f;
+  if (sparse_a) {
+    // Column by column as Eigen's sparse product runs, skipping the silent neurons (y = 0): half of
+    // them at any time, and their zero products leave every sum as it was.
+    r.x.setZero();
+    for (Eigen::Index j = 0; j < N; ++j) {
+      const double y = r.f[j];
+      if (y == 0.0) continue;
+      for (Eigen::SparseMatrix<double>::InnerIterator it(*sparse_a, j); it; ++it) r.x[it.index()] += it.value() * y;
+    }
+  } else {
+    r.x.noalias() = n.a * r.f;
+  }
   // Whole-vector (SIMD) arithmetic: in the reproduced gait this runs four times per millisecond.
   if (u.size() == N)
     r.x = (n.s - st.x - n.b.cwiseProduct(st.f) - r.x + u).cwiseQuotient(n.tau_r_s);

@@ -15,7 +15,7 @@ namespace cpgait {
 MuscleDrivenWorkspace::MuscleDrivenWorkspace(const MuscleDrivenSystem& sys)
     : fd(*sys.model), articulated(*sys.model), geometry(*sys.model), actuator_columns(sys.num_coordinates(), sys.num_actuators()),
       external(sys.model->bodies.size(), Vector6d::Zero()), tau(sys.num_coordinates()),
-      paths(sys.num_muscles()), muscle_wrench(sys.model->bodies.size(), Vector6d::Zero()),
+      paths(sys.num_muscles()), segments(sys.num_muscles()), muscle_wrench(sys.model->bodies.size(), Vector6d::Zero()),
       muscle_force_N(sys.num_muscles()), fiber_velocity_m_s(Eigen::VectorXd::Zero(sys.num_muscles())),
       active_force_N(Eigen::VectorXd::Zero(sys.num_muscles())),
       actuator_force(sys.num_actuators()) {
@@ -93,12 +93,12 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
     } else {
       for (int m = 0; m < nm; ++m) {
         current_path(model, model.muscles[m], q, fd.kinematics, ws.paths[m]);
-        ws.geometry.length_m[m] = current_path_length(ws.paths[m]);
+        ws.geometry.length_m[m] = current_path_segments(ws.paths[m], ws.segments[m]);
         // A compliant tendon's force needs the path's length alone (its fibre velocity is a state's rate).
         ws.geometry.lengthening_speed_m_s[m] =
             sys.compliant_tendons && !ws.rigid_tendon[m]
                 ? std::numeric_limits<double>::quiet_NaN()
-                : current_path_lengthening_speed(ws.paths[m], q, u, fd.kinematics, fd.dynamics.velocity);
+                : current_path_lengthening_speed(ws.paths[m], ws.segments[m], q, u, fd.kinematics, fd.dynamics.velocity);
       }
     }
     for (int m = 0; m < nm; ++m) {
@@ -129,7 +129,7 @@ void muscle_driven_derivatives(const MuscleDrivenSystem& sys, double t, const Ei
       ws.tau.noalias() += ws.geometry.moment_arm_m.transpose() * ws.muscle_force_N;
     } else {
       for (auto& w : ws.muscle_wrench) w.setZero();
-      for (int m = 0; m < nm; ++m) add_path_tension(ws.paths[m], q, fd.kinematics, ws.muscle_force_N[m], ws.muscle_wrench, ws.tau.data());
+      for (int m = 0; m < nm; ++m) add_path_tension(ws.paths[m], ws.segments[m], q, fd.kinematics, ws.muscle_force_N[m], ws.muscle_wrench, ws.tau.data());
       add_generalized_forces_of_wrenches(model, fd.S, ws.muscle_wrench, ws.tau.data());
     }
   }

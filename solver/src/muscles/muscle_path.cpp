@@ -89,51 +89,66 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
 
 namespace {
 bool moves_on_its_body(const PathVertex<double>& p) { return p.point && p.point->kind == PathPoint::Kind::kMoving; }
+}  // namespace
 
-// The straight segments that can stretch: segment(u, v, d, n) with d = x_v - x_u and n = |d| > 0.
-// Skipped: the stretches over a wrap surface (they move with it) and segments fixed on one body.
-template <typename Segment>
-void for_each_stretching_segment(const std::vector<PathVertex<double>>& path, Segment&& segment) {
+double current_path_segments(const std::vector<PathVertex<double>>& path, std::vector<StretchingSegment>& segments) {
+  segments.clear();
+  double length = 0;
   for (std::size_t i = 0; i + 1 < path.size(); ++i) {
     const PathVertex<double>& u = path[i];
     const PathVertex<double>& v = path[i + 1];
-    if (u.body == v.body && !moves_on_its_body(u) && !moves_on_its_body(v)) continue;
-    if (u.wrap >= 0 && v.wrap == u.wrap) continue;
+    if (u.wrap >= 0 && v.wrap == u.wrap) {
+      length += u.surface_length_m;
+      continue;
+    }
     const Eigen::Vector3d d = v.x_ground - u.x_ground;
     const double n = d.norm();
-    if (n > 0) segment(u, v, d, n);
+    length += n;
+    // A segment fixed on one body keeps its length whatever the coordinates do.
+    if (n > 0 && (u.body != v.body || moves_on_its_body(u) || moves_on_its_body(v)))
+      segments.push_back({static_cast<int>(i), static_cast<int>(i + 1), d, n});
   }
+  return length;
 }
-}  // namespace
 
-double current_path_lengthening_speed(const std::vector<PathVertex<double>>& path, const double* q, const double* qd,
+double current_path_lengthening_speed(const std::vector<PathVertex<double>>& path,
+                                      const std::vector<StretchingSegment>& segments, const double* q, const double* qd,
                                       const KinematicsWorkspace<double>& ws,
                                       const std::vector<SpatialVector>& body_velocity) {
   auto velocity = [&](const PathVertex<double>& p) -> Eigen::Vector3d {
     const SpatialVector& V = body_velocity[p.body];
     Eigen::Vector3d v = V.tail<3>() + V.head<3>().cross(p.x_ground);
-    if (p.point) for_each_own_coordinate(*p.point, ws, q, [&](int c, const auto& axis, double df) { v += axis * (df * qd[c]); });
+    if (moves_on_its_body(p))
+      for_each_own_coordinate(*p.point, ws, q, [&](int c, const auto& axis, double df) { v += axis * (df * qd[c]); });
     return v;
   };
+  // A vertex between two segments: its velocity once.
   double speed = 0;
-  for_each_stretching_segment(path, [&](const auto& u, const auto& v, const Eigen::Vector3d& d, double n) {
-    speed += d.dot(velocity(v) - velocity(u)) / n;
-  });
+  int last = -1;
+  Eigen::Vector3d v_last;
+  for (const StretchingSegment& s : segments) {
+    const Eigen::Vector3d v_u = s.u == last ? v_last : velocity(path[s.u]);
+    v_last = velocity(path[s.v]);
+    last = s.v;
+    speed += s.d.dot(v_last - v_u) / s.n;
+  }
   return speed;
 }
 
-void add_path_tension(const std::vector<PathVertex<double>>& path, const double* q, const KinematicsWorkspace<double>& ws,
-                      double tension_N, std::vector<SpatialVector>& body_wrench, double* tau) {
+void add_path_tension(const std::vector<PathVertex<double>>& path, const std::vector<StretchingSegment>& segments,
+                      const double* q, const KinematicsWorkspace<double>& ws, double tension_N,
+                      std::vector<SpatialVector>& body_wrench, double* tau) {
   auto apply = [&](const PathVertex<double>& p, const Eigen::Vector3d& f) {
     body_wrench[p.body].head<3>() += p.x_ground.cross(f);
     body_wrench[p.body].tail<3>() += f;
-    if (p.point) for_each_own_coordinate(*p.point, ws, q, [&](int c, const auto& axis, double df) { tau[c] += f.dot(axis) * df; });
+    if (moves_on_its_body(p))
+      for_each_own_coordinate(*p.point, ws, q, [&](int c, const auto& axis, double df) { tau[c] += f.dot(axis) * df; });
   };
-  for_each_stretching_segment(path, [&](const auto& u, const auto& v, const Eigen::Vector3d& d, double n) {
-    const Eigen::Vector3d f = (tension_N / n) * d;  // pulls u towards v, v towards u
-    apply(u, f);
-    apply(v, -f);
-  });
+  for (const StretchingSegment& s : segments) {
+    const Eigen::Vector3d f = (tension_N / s.n) * s.d;  // pulls u towards v, v towards u
+    apply(path[s.u], f);
+    apply(path[s.v], -f);
+  }
 }
 
 namespace {

@@ -30,11 +30,23 @@ class Function {
   bool is_identity() const { return kind_ == Kind::kLinear && value(0.0) == 0.0 && value(1.0) == 1.0; }
   double scale() const { return scale_; }
 
+  // Constant and linear functions (most of a joint's transform axes, evaluated in every pose) inline;
+  // polynomials and splines out of line.
   template <typename T>
-  T value(const T& x) const;
+  T value(const T& x) const {
+    if (kind_ == Kind::kConstant) return T(scale_ * c_[0]);
+    if (kind_ == Kind::kLinear) return scale_ * (c_[0] * x + c_[1]);
+    return curve_value(x);
+  }
   template <typename T>
-  T derivative(const T& x) const;
-  double second_derivative(double x) const;
+  T derivative(const T& x) const {
+    if (kind_ == Kind::kConstant) return T(0.0);
+    if (kind_ == Kind::kLinear) return T(scale_ * c_[0]);
+    return curve_derivative(x);
+  }
+  double second_derivative(double x) const {
+    return kind_ == Kind::kConstant || kind_ == Kind::kLinear ? 0.0 : curve_second_derivative(x);
+  }
 
  private:
   Kind kind_ = Kind::kConstant;
@@ -50,16 +62,20 @@ class Function {
   double buckets_per_x_ = 0;
   std::vector<int> bucket_interval_;
   void index_knots();
+  template <typename T>
+  T curve_value(const T& x) const;
+  template <typename T>
+  T curve_derivative(const T& x) const;
+  double curve_second_derivative(double x) const;
   int interval(double x) const;
 };
 
 template <typename T>
-T Function::value(const T& x) const {
+T Function::curve_value(const T& x) const {
   switch (kind_) {
     case Kind::kConstant:
-      return T(scale_ * c_[0]);
     case Kind::kLinear:
-      return scale_ * (c_[0] * x + c_[1]);
+      break;  // value() has them
     case Kind::kPolynomial: {
       T r(0.0);
       for (double c : c_) r = r * x + c;
@@ -80,12 +96,11 @@ T Function::value(const T& x) const {
 }
 
 template <typename T>
-T Function::derivative(const T& x) const {
+T Function::curve_derivative(const T& x) const {
   switch (kind_) {
     case Kind::kConstant:
-      return T(0.0);
     case Kind::kLinear:
-      return T(scale_ * c_[0]);
+      break;  // derivative() has them
     case Kind::kPolynomial: {
       T r(0.0);
       const int deg = static_cast<int>(c_.size()) - 1;

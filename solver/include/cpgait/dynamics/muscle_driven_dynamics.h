@@ -61,6 +61,7 @@ struct MuscleDrivenWorkspace {
   Eigen::MatrixXd G, M_free;
   std::vector<char> rigid_tendon;  // per muscle: its own model's tendon is inextensible
   std::vector<std::vector<PathVertex<double>>> paths;  // per muscle (MuscleGeometry::kLengthsAndSpeeds)
+  std::vector<std::vector<StretchingSegment>> segments;  // per muscle: its path's stretching segments
   std::vector<Vector6d> muscle_wrench;                  // per body: the muscles' tensions
   // Outputs of the last evaluation.
   double time_s = 0;

@@ -216,17 +216,28 @@ void muscle_path_geometry(const Model& model, const double* q, const double* qd,
 // `path` from current_path at the pose in ws. Spatial vectors are in ground at the ground origin:
 // velocities angular then linear, forces moment then force.
 using SpatialVector = Eigen::Matrix<double, 6, 1>;
-// dL/dt (m/s) = dL/dq qd: each straight segment's end velocities along it (tangent points move with
+// A straight segment of a current path that can stretch (not fixed on one body, not over a wrap
+// surface): its ends' indices in the path, d = x_v - x_u (ground, m) and n = |d| > 0.
+struct StretchingSegment {
+  int u = 0, v = 0;
+  Eigen::Vector3d d;
+  double n = 0;
+};
+// The path's length (m), as current_path_length sums it, and its stretching segments, in one pass:
+// the lengthening speed and the tension below both work on the segments.
+double current_path_segments(const std::vector<PathVertex<double>>& path, std::vector<StretchingSegment>& segments);
+// dL/dt (m/s) = dL/dq qd: each stretching segment's end velocities along it (tangent points move with
 // their surface's body, as muscle_path_geometry counts them), plus moving points' own motion.
-double current_path_lengthening_speed(const std::vector<PathVertex<double>>& path, const double* q, const double* qd,
+double current_path_lengthening_speed(const std::vector<PathVertex<double>>& path,
+                                      const std::vector<StretchingSegment>& segments, const double* q, const double* qd,
                                       const KinematicsWorkspace<double>& ws,
                                       const std::vector<SpatialVector>& body_velocity);
-// A tension (N) along the path: equal and opposite forces at each straight segment's ends, added to
+// A tension (N) along the path: equal and opposite forces at each stretching segment's ends, added to
 // body_wrench, and moving points' own generalized forces, added to tau. Mapped by J^T
 // (add_generalized_forces_of_wrenches, rnea.h) they sum to -tension dL/dq.
-void add_path_tension(const std::vector<PathVertex<double>>& path, const double* q, const KinematicsWorkspace<double>& ws,
-                      double tension_N, std::vector<SpatialVector>& body_wrench,
-                      double* tau);
+void add_path_tension(const std::vector<PathVertex<double>>& path, const std::vector<StretchingSegment>& segments,
+                      const double* q, const KinematicsWorkspace<double>& ws, double tension_N,
+                      std::vector<SpatialVector>& body_wrench, double* tau);
 
 // One path spring's or path actuator's length (m), lengthening speed (m/s; 0 when qd is null) and
 // dL/dq (a row of nq), as the muscles'.
