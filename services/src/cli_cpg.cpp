@@ -161,6 +161,13 @@ struct GaitArgs {
   const CLI::Option *tolerance_option = nullptr, *control_interval_option = nullptr, *integrator_option = nullptr;
 };
 
+// --integrator's names (w_method_name's).
+std::map<std::string, WMethod> w_methods_by_name() {
+  std::map<std::string, WMethod> names;
+  for (WMethod w : {WMethod::kRos34pw2, WMethod::kRos2, WMethod::kLinearlyImplicitEuler}) names[w_method_name(w)] = w;
+  return names;
+}
+
 // --tune: the CPG with its controller tuned, written to <out>_cpg_tuned.json.
 CpgModel tune_in_cli(const GaitArgs& g, const Model& model, const CpgModel& cpg, const Storage& kin, const ContactSet& contacts,
                      const ReproducedGaitOptions& o, int foot_spheres) {
@@ -327,7 +334,8 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
       ->check(CLI::Range(0.01, 0.99));
   gait->add_option("--tune-tolerances", g->tuning.integrator_tolerances,
                    "integrator tolerances every tuning walk is taken at (each one more simulation), so the controller walks by its "
-                   "own stability, not one tolerance's integration error, e.g. 5e-4 2e-3 (default: --tolerance alone)")
+                   "own stability, not one tolerance's integration error, e.g. 5e-4 2e-3 (default: --tolerance alone; with "
+                   "linearly_implicit_euler, walks in ros34pw2 at these tolerances besides its own)")
       ->check(CLI::Range(1e-8, 0.1));
   gait->add_flag("--tune-entrainment", g->tuning.tune_entrainment,
                  "tuning: also search the CPG's entrainment, the share of its phase error made up at each touchdown (see --entrainment)");
@@ -416,9 +424,9 @@ void add_gait_command(CLI::App& app) {
           ->capture_default_str();
   g->integrator_option =
       gait->add_option("--integrator", g->options.integrator,
-                       "ros34pw2 (third-order Rosenbrock-W; the default) or rosenbrock (ROS2, second order: the walks before ros34pw2 "
-                       "became the default, with --control-interval 0.001); default: the one the CPG's controller was tuned in")
-          ->transform(CLI::CheckedTransformer(std::map<std::string, WMethod>{{w_method_name(WMethod::kRos34pw2), WMethod::kRos34pw2}, {w_method_name(WMethod::kRos2), WMethod::kRos2}}));
+                       "ros34pw2 (third-order Rosenbrock-W), rosenbrock (ROS2: the walks before ros34pw2, with --control-interval 0.001) or "
+                       "linearly_implicit_euler (first order, one step per interval; --tolerance unused); default: the controller's, else ros34pw2")
+          ->transform(CLI::CheckedTransformer(w_methods_by_name()));
   gait->add_flag("--compliant-tendons", g->options.compliant_tendons,
                  "compliant tendons (OpenSim's Thelen2003Muscle; suits a CPG fitted to CMC excitations). Default: rigid, as static "
                  "optimization assumes");

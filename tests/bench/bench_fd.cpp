@@ -178,19 +178,77 @@ static void BM_ReproducedGaitSubject01(benchmark::State& state) {
     o.duration_s = 1.5;
   }
   if (state.range(0) == 3) o.control_interval_s = 0.001, o.integrator = WMethod::kRos2;  // the defaults before ROS34PW2 at 2.5 ms
+  if (state.range(0) == 4) o.integrator = WMethod::kLinearlyImplicitEuler;  // one step per 2.5 ms interval
   double simulated = 0;
   for (auto _ : state) simulated += reproduce_gait(m, fit.model, kin, feet, o).time_s.back();
   state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
 }
 // Args: 0 rigid tendons with residuals, 1 compliant tendons, 2 the closed loop without residuals, 3 the
-// same with ROS2 at a 1 ms controller interval (the defaults before ROS34PW2 at 2.5 ms).
-BENCHMARK(BM_ReproducedGaitSubject01)->Unit(benchmark::kSecond)->Iterations(2)->Arg(0)->Arg(1)->Arg(2)->Arg(3);
+// same with ROS2 at a 1 ms controller interval (the defaults before ROS34PW2 at 2.5 ms), 4 the same
+// with the linearly implicit Euler method (the gait stage's "integrator": "linearly_implicit_euler").
+BENCHMARK(BM_ReproducedGaitSubject01)->Unit(benchmark::kSecond)->Iterations(2)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Arg(4);
+
+// Runs the pipeline on `in` with `options` into a temporary folder, then replays for 10 s on one
+// thread, as `cpgait gait` replays it, the controller it tuned (walk_cpg_tuned.json against
+// `reference`, a file of that run) on model m: the controller's feet fitted to the trial's, its gains
+// and start. Counters: simulated seconds per wall-clock second (issue 22's target: 30), falls.
+static void replay_tuned_walk(benchmark::State& state, const services::TrialInputs& in, const services::PipelineOptions& options, const Model& m,
+                              const std::string& reference, const std::string& folder) {
+  const std::string out = (std::filesystem::temp_directory_path() / folder).string();
+  services::run_pipeline(in, options, out);
+  const CpgModel cpg = CpgModel::from_json(nlohmann::json::parse(text::read_file(out + "/walk_cpg_tuned.json")), "walk_cpg_tuned.json");
+  const Storage kin = read_storage(out + "/" + reference);
+  std::filesystem::remove_all(out);
+  ContactSet feet = default_foot_contacts(m, cpg.controller->foot_spheres);
+  const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
+  fit_foot_spheres_to_trial(m, feet, k.recorded_time_s, k.q_recorded);
+  ReproducedGaitOptions o = with_controller(*cpg.controller, ReproducedGaitOptions{});
+  o.pelvis_residuals = false;
+  o.duration_s = 10;
+  double simulated = 0, fell = 0;
+  for (auto _ : state) {
+    const ReproducedGaitResult r = reproduce_gait(m, cpg, kin, feet, o);
+    simulated += r.time_s.back();
+    fell += r.fell_at_s >= 0;
+  }
+  state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
+  state.counters["falls"] = fell;
+}
+
+// The autonomous gait on subject01 (gait2392: 23 coordinates, 92 Thelen muscles, rigid tendons) with
+// the gait stage's "integrator": "linearly_implicit_euler", one thread: the stage's knob-1 controller
+// at its defaults otherwise (604 simulations, about 40 s on 2 cores before timing; it walks 10 s)
+// replayed for 10 s as `cpgait gait` replays it. Counter: simulated seconds per wall-clock second
+// (issue 22's target: 30). At ROS34PW2, the default, the same tuning takes about four minutes
+// (docs/gait-speed.md gives that walk's figures).
+static void BM_ReproducedGaitSubject01Tuned(benchmark::State& state) {
+  const std::string pl = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
+  const std::string generic = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/model/gait2392_simbody.osim";
+  if (!std::filesystem::exists(pl + "subject01_walk1.trc") || !std::filesystem::exists(generic)) {
+    state.SkipWithError("reference data absent: ../shared/reference/opensim/gait2392");
+    return;
+  }
+  services::TrialInputs in;
+  in.name = "walk";
+  in.model_path = pl + "OutputReference/subject01_simbody.osim";
+  in.generic_model_path = generic;
+  in.markers = text::read_file(pl + "subject01_walk1.trc"), in.markers_name = "subject01_walk1.trc";
+  in.grf = text::read_file(pl + "subject01_walk1_grf.mot"), in.grf_name = "subject01_walk1_grf.mot";
+  in.loads = text::read_file(pl + "subject01_walk1_grf.xml"), in.loads_name = "subject01_walk1_grf.xml";
+  services::PipelineOptions options = services::PipelineOptions::from_json(
+      nlohmann::json::parse(R"({"gait": {"integrator": "linearly_implicit_euler", "speed_knobs": [], "check_tolerances": []}})"), "bench");
+  options.set_stage_option("ik", "tasks", nlohmann::json::parse(ik_tasks_json(read_ik_tasks(pl + "subject01_Setup_IK.xml"))), "bench");
+  const Model m = scale_muscle_parameters(read_osim(in.model_path).model, read_osim(generic).model);
+  replay_tuned_walk(state, in, options, m, "walk_gait_reference.sto", "cpgait_bench_subject01");
+}
+BENCHMARK(BM_ReproducedGaitSubject01Tuned)->Unit(benchmark::kSecond)->Iterations(3);
 
 // The autonomous gait on gait10dof18musc (planar, 18 Millard muscles, rigid tendons), one thread: the
 // controller the pipeline's gait stage tunes (here in 120 simulations, about 20 s on 2 cores before
 // timing; it walks 10 s) replayed for 10 s as `cpgait gait` replays it. Counter: simulated seconds
 // per wall-clock second (issue 22's target: 30). Argument 0: the stage's defaults (2.5 ms controller
-// interval, tolerance 1e-3); 1: tuned and walked at 5 ms and 2e-3 (docs/gait-speed.md).
+// interval, tolerance 1e-3); 1: tuned and walked at 5 ms and 2e-3 (docs/gait-speed.md); 2: tuned and
+// walked with the linearly implicit Euler method at 2.5 ms.
 static void BM_ReproducedGaitGait10dof18musc(benchmark::State& state) {
   const std::string d = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait10dof18musc/";
   if (!std::filesystem::exists(d + "OutputReference/subject01.osim") || !std::filesystem::exists(d + "IK/walk_Setup_IK.xml")) {
@@ -212,27 +270,8 @@ static void BM_ReproducedGaitGait10dof18musc(benchmark::State& state) {
     options.set_stage_option("gait", "control_interval_s", 0.005, "bench");
     options.set_stage_option("gait", "tolerance", 0.002, "bench");
   }
+  if (state.range(0) == 2) options.set_stage_option("gait", "integrator", "linearly_implicit_euler", "bench");
   options.set_stage_option("ik", "tasks", nlohmann::json::parse(ik_tasks_json(read_ik_tasks(d + "IK/walk_Setup_IK.xml"))), "bench");
-  const std::string out = (std::filesystem::temp_directory_path() / "cpgait_bench_gait10dof").string();
-  services::run_pipeline(in, options, out);
-  const Model m = read_osim(in.model_path).model;
-  const CpgModel cpg = CpgModel::from_json(nlohmann::json::parse(text::read_file(out + "/walk_cpg_tuned.json")), "walk_cpg_tuned.json");
-  const Storage kin = read_storage(out + "/walk_ik.mot");
-  std::filesystem::remove_all(out);
-  // As `cpgait gait` replays it: the controller's feet fitted to the trial's, its gains and start.
-  ContactSet feet = default_foot_contacts(m, cpg.controller->foot_spheres);
-  const CoordinateTrajectories k = coordinate_trajectories(m, kin, {});
-  fit_foot_spheres_to_trial(m, feet, k.recorded_time_s, k.q_recorded);
-  ReproducedGaitOptions o = with_controller(*cpg.controller, ReproducedGaitOptions{});
-  o.pelvis_residuals = false;
-  o.duration_s = 10;
-  double simulated = 0, fell = 0;
-  for (auto _ : state) {
-    const ReproducedGaitResult r = reproduce_gait(m, cpg, kin, feet, o);
-    simulated += r.time_s.back();
-    fell += r.fell_at_s >= 0;
-  }
-  state.counters["simulated_s_per_s"] = benchmark::Counter(simulated, benchmark::Counter::kIsRate);
-  state.counters["falls"] = fell;
+  replay_tuned_walk(state, in, options, read_osim(in.model_path).model, "walk_ik.mot", "cpgait_bench_gait10dof");
 }
-BENCHMARK(BM_ReproducedGaitGait10dof18musc)->Unit(benchmark::kSecond)->Iterations(3)->Arg(0)->Arg(1);
+BENCHMARK(BM_ReproducedGaitGait10dof18musc)->Unit(benchmark::kSecond)->Iterations(3)->Arg(0)->Arg(1)->Arg(2);

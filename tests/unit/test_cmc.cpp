@@ -194,20 +194,62 @@ TEST(RosenbrockW, Ros34pw2ThirdOrderWithAnyJacobianAndStableOnStiffModes) {
   }
 }
 
+// The reproduced gait's fast option: equal steps of at most max_step_s ending at t1, one evaluation
+// (prepare's) each, first order whatever J, and with the exact J stable on the stiff pair at steps
+// 3,000 times its stiff time constant (explicit Euler's factor there would be |1 + h lambda| ~ 2,900).
+TEST(RosenbrockW, LinearlyImplicitEulerFirstOrderOneEvaluationPerStepAndStable) {
+  const StiffPair pair;
+  RosenbrockOptions o;
+  o.max_step_s = 0.3;  // 2 s in 7 equal steps of 2/7 s
+  Eigen::VectorXd x(2);
+  x << 0.0, 1.0;
+  double t_reached = 0.0;
+  long reported = 0;
+  const WStepDone step_done = [&](double ta, const Eigen::VectorXd&, double tb, const Eigen::VectorXd&) {
+    EXPECT_EQ(ta, t_reached);
+    EXPECT_NEAR(tb - ta, 2.0 / 7.0, 1e-12);
+    t_reached = tb;
+    ++reported;
+  };
+  const auto s = integrate_w_method(WMethod::kLinearlyImplicitEuler, pair.f, pair.prepare, pair.solve, 0.0, 2.0, x, o, step_done);
+  ASSERT_TRUE(s.success) << s.message;
+  EXPECT_EQ(s.accepted_steps, 7);
+  EXPECT_EQ(s.evaluations, 7);
+  EXPECT_EQ(reported, 7);
+  EXPECT_EQ(t_reached, 2.0);
+  // With the exact J on a linear problem it is implicit Euler: y2 shrinks by 1 / (1 + h) a step, and
+  // y1 follows it, as the exact y1 = y2 lambda / (lambda + 1) does.
+  EXPECT_NEAR(x[1], std::pow(1.0 + 2.0 / 7.0, -7), 1e-12);
+  EXPECT_NEAR(x[0], x[1], 1e-3 * x[1]);
+  // First order whatever the Jacobian (zero: explicit Euler; half the true one): halving the step
+  // halves the error. y' = sin t - y, y(0) = 1.
+  const OdeFunction g = [](double t, const Eigen::VectorXd& y, Eigen::VectorXd& dy) { dy = -y + Eigen::VectorXd::Constant(1, std::sin(t)); };
+  const double exact = 0.5 * (std::sin(1.0) - std::cos(1.0)) + 1.5 * std::exp(-1.0);
+  for (const double j : {0.0, -0.5}) {
+    const WSolve approximate = [j](double gh, const Eigen::VectorXd& rhs, Eigen::VectorXd& k) { k = rhs / (1.0 - gh * j); };
+    EXPECT_NEAR(halving_error_ratio(integrate_linearly_implicit_euler, g, approximate, exact), 2.0, 0.3) << "J = " << j;
+  }
+  // Its name in options and files.
+  EXPECT_EQ(w_method_named(w_method_name(WMethod::kLinearlyImplicitEuler)), WMethod::kLinearlyImplicitEuler);
+  EXPECT_EQ(w_method_name(WMethod::kLinearlyImplicitEuler), "linearly_implicit_euler");
+}
+
 TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
   // (I - gh J) k = rhs with J from finite differences of the stiff blocks: check W k against rhs
   // by applying J explicitly through the same blocks, for compliant and rigid tendons, and with the
   // feet pressing into sliding ground (contact damping and stiffness).
   const Model& m = walker();
   ContactSet feet = default_foot_contacts(m);
-  for (int variant = 0; variant < 3; ++variant) {
-    const bool compliant = variant != 1, contact = variant == 2;
+  // Variant 3: rigid tendons on sliding ground with the whole W (MuscleDrivenJacobian::whole_w).
+  for (int variant = 0; variant < 4; ++variant) {
+    const bool compliant = variant != 1 && variant != 3, contact = variant >= 2, whole = variant == 3;
     MuscleDrivenSystem sys;
     sys.model = &m;
     sys.compliant_tendons = compliant;
     if (contact) sys.contacts = &feet;
     MuscleDrivenWorkspace ws(sys);
     MuscleDrivenJacobian jac;
+    jac.whole_w = whole;
     const int nq = m.num_coordinates(), nm = sys.num_muscles(), n = sys.state_size();
     Eigen::VectorXd x = Eigen::VectorXd::Zero(n), f0(n), k(n), none(0);
     x.head(nq) = m.default_coordinates();
@@ -235,7 +277,16 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
       ASSERT_EQ(jac.damping.rows(), nq);
       EXPECT_GT(jac.damping.trace(), 0.0);
       EXPECT_GT(jac.stiffness.trace(), 0.0);
-      EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(jac.damping).eigenvalues().minCoeff(), -1e-9);
+      // Friction follows the normal force, which follows the normal speed: the whole damping is
+      // unsymmetric; the Cholesky W keeps its symmetric, positive part.
+      const double asymmetry = (jac.damping - jac.damping.transpose()).norm() / jac.damping.norm();
+      if (whole) {
+        EXPECT_GT(asymmetry, 1e-3);
+        EXPECT_GT(jac.dF_dL.maxCoeff(), 0.0);  // the force-length curves' stiffness, in jac.stiffness
+      } else {
+        EXPECT_LT(asymmetry, 1e-12);
+        EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(jac.damping).eigenvalues().minCoeff(), -1e-9);
+      }
     }
     const Eigen::VectorXd rhs = Eigen::VectorXd::Random(n);
     const double gh = 2e-3;

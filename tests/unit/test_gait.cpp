@@ -411,10 +411,10 @@ TEST(ReproducedGait, TheControllerIntervalSamplesTheWalkAndIsBounded) {
   }
 }
 
-// The default integrator, ROS34PW2, against ROS2 at the default interval and tolerance: each walk's
-// largest coordinate difference to the walk at 1e-7. ROS34PW2 is ten times nearer in fewer steps
-// (measured on this walker over 0.3 s: 3.6e-3 rad in 129 steps against ROS2's 3.8e-2 in 300; ROS2 at
-// its former 1 ms interval, 1.0e-2 in 376).
+// The default integrator, ROS34PW2, against ROS2 at the default interval and tolerance (and the
+// linearly implicit Euler method): each walk's largest coordinate difference to the walk at 1e-7.
+// ROS34PW2 is ten times nearer in fewer steps (measured on this walker over 0.3 s: 3.6e-3 rad in 129
+// steps against ROS2's 3.8e-2 in 300; ROS2 at its former 1 ms interval, 1.0e-2 in 376).
 TEST(ReproducedGait, DefaultIntegratorIsNearTheConvergedWalk) {
   StillWalker w;
   ReproducedGaitOptions o = falling_walk();
@@ -433,6 +433,20 @@ TEST(ReproducedGait, DefaultIntegratorIsNearTheConvergedWalk) {
   EXPECT_LT(e34, 1e-2);
   EXPECT_LT(e34, 0.2 * e2);
   EXPECT_LT(ros34.integrator_steps, ros2.integrator_steps);
+  // The fast option, the linearly implicit Euler method: one step per controller interval, its W whole
+  // (the contact's unsymmetric damping, the muscles' stiffness). First order, it strays far more:
+  // measured 0.34 rad in 120 steps on this fall of 1.36 rad (regression bound 0.3 of the motion).
+  // Subject01's tuned walks are in docs/gait-speed.md.
+  o.integrator = WMethod::kLinearlyImplicitEuler;
+  const ReproducedGaitResult euler = reproduce_gait(w.m, w.cpg, w.reference, w.feet, o);
+  ASSERT_EQ(euler.q.rows(), exact.q.rows());
+  EXPECT_EQ(euler.integrator_steps, euler.q.rows() - 1);  // one per interval
+  double moved = 0;
+  for (Eigen::Index i = 0; i < exact.q.rows(); ++i) moved = std::max(moved, (exact.q.row(i) - exact.q.row(0)).cwiseAbs().maxCoeff());
+  const double e_euler = (euler.q - exact.q).cwiseAbs().maxCoeff();
+  std::printf("[info] linearly implicit Euler: %.2e rad in %ld steps (largest motion %.2e rad)\n", e_euler, euler.integrator_steps, moved);
+  EXPECT_LT(e_euler, 0.3 * moved);
+  EXPECT_GT(e_euler, e34);  // first order against third
 }
 
 // A push at the pelvis moves the centre of mass as its impulse would: in the air (the ground far
@@ -920,7 +934,7 @@ TEST(GaitTuning, GroundStepPlacesEnterTheCost) {
 
 // Each walk is taken at each integrator tolerance, the cost their mean: the gait's own tolerance
 // alone is the untouched cost, two tolerances average their costs; a tolerance that is not positive
-// is refused. Why: subject01's controllers tuned at 1e-3 fell on the level at 5e-4 and 2e-3 (the
+// is refused; with the linearly implicit Euler method the tolerances add walks in ROS34PW2. Why: subject01's controllers tuned at 1e-3 fell on the level at 5e-4 and 2e-3 (the
 // README's at 8.39 and 8.30 s; the one refined over the ground steps at 7.82 and 7.24 s), while an
 // earlier one of the same chain walked 10 s at 2.5e-4 to 4e-3. Tuned at 5e-4 and 2e-3 (the README's
 // options, a 10 s horizon), subject01's controller walked 10 s at 2.5e-4 to 2e-3, 1e-3 included,
@@ -938,6 +952,14 @@ TEST(GaitTuning, IntegratorTolerancesEnterTheCost) {
   EXPECT_GT(std::abs(loose - tight), 1e-9);  // the walks differ
   EXPECT_NEAR(start_cost({1e-2, 1e-5}), 0.5 * (loose + tight), 1e-12);
   EXPECT_THROW(start_cost({1e-3, 0.0}), std::invalid_argument);
+  // The linearly implicit Euler method has no tolerance: its own walk, and one in ROS34PW2 at each.
+  QuickTuning e(2);
+  e.o.integrator = WMethod::kLinearlyImplicitEuler;
+  const double euler = e.tune(e.t).summary.start_cost;
+  GaitTuningOptions checked = e.t;
+  checked.integrator_tolerances = {1e-2};
+  EXPECT_GT(std::abs(euler - loose), 1e-9);  // the walks differ
+  EXPECT_NEAR(e.tune(checked).summary.start_cost, 0.5 * (euler + loose), 1e-12);
 }
 
 // A walk that fell is not taken again at the next tolerance: its fall counts there too. The still

@@ -688,13 +688,13 @@ function gaitCycleCard(card, summary, cycles) {
       h('td', {}, `${strides(r, 'right')} / ${strides(r, 'left')}`), h('td', {}, fmt(r.stride_time_s, 3)),
       h('td', {}, `${fmt(r.cycle_over_speed_s, 3)}${r.stride_time_s > 0 && r.cycle_over_speed_s ? ` (${fmt(100 * (r.stride_time_s / r.cycle_over_speed_s - 1), 1)} %)` : ''}`),
       h('td', {}, fmt(r.stride_length_m, 2)), h('td', {}, fmt(r.speed_m_s, 2)), h('td', {}, phases(r)))));
-  // The same walk at other integrator tolerances (the stage's check without residuals): a walk that
-  // stands at its own tolerance alone stands by that tolerance's integration error.
+  // The same walk at other integrator tolerances (the stage's check without residuals; ROS34PW2 for a
+  // linearly implicit Euler walk): a walk that stands in its own integration alone stands by its error.
   const checks = summary.tolerance_check || [];
   const checkTable = checks.length ? h('table', { id: 'gait-tolerance-check' },
-    h('tr', {}, ['Integrator tolerance', 'Walked'].map((x) => h('th', {}, x))),
+    h('tr', {}, ['Integrator, tolerance', 'Walked'].map((x) => h('th', {}, x))),
     checks.map((c) => h('tr', { 'data-tolerance': c.tolerance, class: c.fell_at_s == null ? '' : 'fell' },
-      h('td', {}, `${c.tolerance}`), h('td', {}, walked(c))))) : null;
+      h('td', {}, `${c.integrator ? `${c.integrator}, ` : ''}${c.tolerance}`), h('td', {}, walked(c))))) : null;
   const box = h('div', { id: 'plot-gait-cycle' });
   const trialPanel = panel('kinematics');
   const names = sim ? sim.series.map((s) => s.name).filter((n) => !/^pelvis_t[xyz]$/.test(n)) : [];

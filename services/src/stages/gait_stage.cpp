@@ -62,9 +62,9 @@ struct GaitStageOptions {
                     "the controller's interval: the CPG, reflexes and balance feedback are updated once per interval (also the "
                     "integrator's largest step and the motion's sample)",
                     NumberRange{1e-4, 0.01})
-            .choice("integrator", &GaitStageOptions::integrator, {"ros34pw2", "rosenbrock"},
-                    "ros34pw2 (third-order Rosenbrock-W) or rosenbrock (ROS2, second order: the walks before ros34pw2 became the "
-                    "default, with control_interval_s 0.001)")
+            .choice("integrator", &GaitStageOptions::integrator, {"ros34pw2", "rosenbrock", "linearly_implicit_euler"},
+                    "ros34pw2 (third-order Rosenbrock-W), rosenbrock (ROS2: the walks before ros34pw2, with control_interval_s 0.001) or "
+                    "linearly_implicit_euler (first order, one step per control interval; tolerance unused, check_tolerances in ros34pw2)")
             .boolean("phase_reference", &GaitStageOptions::phase_reference,
                      "the joint reflexes track the trial's cycle average at the CPG's phase (read from its rhythm neurons), not the trial at the simulation's time")
             .integer("tune_evaluations", &GaitStageOptions::tune_evaluations, 0, 5000,
@@ -117,8 +117,8 @@ struct GaitStageOptions {
                          "ground frame, three numbers each (x y z)",
                          NumberRange{-200.0, 200.0}, 12, 3)
             .number_list("tune_tolerances", &GaitStageOptions::tune_tolerances, "",
-                         "tuning: integrator tolerances every candidate's walks are taken at (each one more simulation), so the "
-                         "controller walks by its own stability, not by one tolerance's integration error (empty: tolerance alone)",
+                         "tuning: integrator tolerances every candidate's walks are taken at (each one more simulation; linearly_implicit_euler: "
+                         "in ros34pw2, besides its own), so the controller walks by its own stability (empty: tolerance alone)",
                          NumberRange{0.0, 0.1, true}, 4)
             .number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
                          "more walks, each as long as the first, at these CPG speed knobs (times the trial's cadence), the controller "
@@ -202,19 +202,27 @@ nlohmann::json walk_at_tolerances(const Model& model, const CpgModel& cpg, const
   for (double tolerance : tolerances) {
     ReproducedGaitOptions o = options;
     o.integrator_tolerance = tolerance;
+    // A fixed-step walk has no tolerance: its check is the walk in ROS34PW2's error-controlled physics.
+    if (o.integrator == WMethod::kLinearlyImplicitEuler) o.integrator = WMethod::kRos34pw2;
     ProgressShare walk_progress = progress.next();
     const ReproducedGaitResult g = reproduce_gait(model, cpg, reference, feet, o, &walk_progress);
     nlohmann::json run = walk_outcome(g);
     run["tolerance"] = tolerance;
+    run["integrator"] = w_method_name(o.integrator);
     runs.push_back(run);
     if (g.fell_at_s >= 0) fell.push_back(number_text(tolerance) + " (at " + number_text(g.fell_at_s) + " s)");
   }
   if (walked && !fell.empty()) {
     std::string list;
     for (const std::string& f : fell) list += (list.empty() ? "" : ", ") + f;
-    summary["warnings"].push_back("the walk falls at integrator tolerance " + list + " but not at " + number_text(options.integrator_tolerance) +
-                                  ": the controller walks by that tolerance's integration error, not by its own stability; tune it with "
-                                  "tune_tolerances");
+    if (options.integrator == WMethod::kLinearlyImplicitEuler)
+      summary["warnings"].push_back("the walk falls with ros34pw2 at tolerance " + list +
+                                    " but not in the linearly implicit Euler's steps: the controller walks partly by that method's "
+                                    "integration error, not by its own stability alone");
+    else
+      summary["warnings"].push_back("the walk falls at integrator tolerance " + list + " but not at " + number_text(options.integrator_tolerance) +
+                                    ": the controller walks by that tolerance's integration error, not by its own stability; tune it with "
+                                    "tune_tolerances");
   }
   return runs;
 }

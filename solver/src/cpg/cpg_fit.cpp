@@ -715,7 +715,7 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         if (!(k.integrator_tolerance >= 0 && k.integrator_tolerance <= 0.1))
           fail(field + ".simulation.tolerance", "the integrator's tolerance lies in (0, 0.1] (0: not recorded)");
         if (!k.integrator.empty() && !w_method_named(k.integrator))
-          fail(field + ".simulation.integrator", "\"ros34pw2\" or \"rosenbrock\" (empty: not recorded), not \"" + k.integrator + "\"");
+          fail(field + ".simulation.integrator", "\"ros34pw2\", \"rosenbrock\" or \"linearly_implicit_euler\" (empty: not recorded), not \"" + k.integrator + "\"");
       }
       for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v})
         if (!std::isfinite(v)) fail(field, "balance gains must be finite numbers");

@@ -237,6 +237,11 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const double dV = 1e-6 * mu.optimal_fiber_length_m * mu.max_contraction_velocity;
       jac.dF_da[m] = (muscles::rigid_tendon_active_force(mu, a + da, L, V) - F) / da;
       jac.dF_dV[m] = std::max(0.0, (muscles::rigid_tendon_active_force(mu, a, L, V + dV) - F) / dV);
+      if (jac.whole_w) {
+        const double dL = 1e-7 * mu.optimal_fiber_length_m;
+        const auto fL = muscles::rigid_tendon_forces(mu, a, L + dL, V);
+        jac.dF_dL[m] = std::max(0.0, (fL.active_N + fL.passive_N - ws.muscle_force_N[m]) / dL);
+      }
     }
   }
   jac.factored_gamma_h = -1;
@@ -255,6 +260,7 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   // velocity and its height, by differences, mapped through the contact point's velocity Jacobian.
   jac.damping.setZero(nq, nq);
   jac.stiffness.setZero(nq, nq);
+  if (!sys.compliant_tendons && jac.whole_w && nm > 0) add_moment_arm_product(jac, jac.dF_dL, 1.0, jac.stiffness);
   if (sys.contacts && !sys.contacts->spheres.empty()) {
     const ContactSet& set = *sys.contacts;
     const double* u = x.data() + nq;
@@ -269,8 +275,12 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       Eigen::Matrix3d C;
       const double dv = 1e-6;
       for (int j = 0; j < 3; ++j) C.col(j) = -(sphere_contact_force(s, set, c, v + dv * Eigen::Vector3d::Unit(j), ws.time_s) - f0) / dv;
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (C + C.transpose()));
-      const Eigen::Matrix3d C_psd = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+      Eigen::Matrix3d C_w = C;
+      if (!jac.whole_w) {
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (C + C.transpose()));
+        const Eigen::Matrix3d C_psd = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+        C_w = C_psd;
+      }
       const double dp = 1e-7;
       const double k_yy = std::max(0.0, -(sphere_contact_force(s, set, c + dp * Eigen::Vector3d::UnitY(), v, ws.time_s).y() - f0.y()) / dp);
       // Over the sphere's ancestor coordinates only (its Jacobian's nonzero columns): a dense
@@ -279,7 +289,7 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
       const int nc = static_cast<int>(cs.size());
       for (int a = 0; a < nc; ++a) J.col(a) = point_velocity_column(ws.fd.S, cs[a], p);
       const auto Jc = J.leftCols(nc);
-      const Eigen::Matrix<double, Eigen::Dynamic, 3> JtC = Jc.transpose() * C_psd;
+      const Eigen::Matrix<double, Eigen::Dynamic, 3> JtC = Jc.transpose() * C_w;
       for (int b = 0; b < nc; ++b)
         for (int a = 0; a < nc; ++a) {
           jac.damping(cs[a], cs[b]) += JtC.row(a).dot(Jc.col(b));
@@ -325,7 +335,8 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
     if (!sys.compliant_tendons && nm > 0) jac.W += gh * jac.muscle_damping;
     jac.W += gh * jac.damping + gh * gh * jac.stiffness;
     if (tendon_stiffness) add_moment_arm_product(jac, jac.tendon_stiffness, gh * gh, jac.W);
-    jac.llt.compute(jac.W);
+    if (jac.whole_w) jac.lu.compute(jac.W);
+    else jac.llt.compute(jac.W);
     jac.factored_gamma_h = gh;
   }
   Eigen::VectorXd& b = jac.b;
@@ -338,7 +349,7 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
     stretch.array() *= jac.tendon_stiffness.array();
     add_moment_arm_transpose_product(jac, stretch, -gh, b);
   }
-  k.segment(nq, nq) = jac.llt.solve(b);
+  k.segment(nq, nq) = jac.whole_w ? Eigen::VectorXd(jac.lu.solve(b)) : jac.llt.solve(b);
   k.head(nq) = rhs.head(nq) + gh * k.segment(nq, nq);
   if (tendon_stiffness) {
     // The fibres' response to the joints' motion over the step, where the coupling was kept.

@@ -142,16 +142,58 @@ DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& pr
   return rosenbrock_steps(prepare, t0, t1, x, o, step_done, attempt, step_factor, s);
 }
 
-DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
-                                        double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
-  return method == WMethod::kRos34pw2 ? integrate_ros34pw2(f, prepare, solve, t0, t1, x, o, step_done)
-                                      : integrate_ros2(f, prepare, solve, t0, t1, x, o, step_done);
+DormandPrinceSummary integrate_linearly_implicit_euler(const OdeFunction&, const WPrepare& prepare, const WSolve& solve, double t0,
+                                                       double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
+  DormandPrinceSummary s;
+  const double max_step_s = std::max(o.max_step_s, o.min_step_s);
+  s.last_step_s = max_step_s;
+  if (!(t1 > t0)) return s;
+  const long steps = std::max(1L, static_cast<long>(std::ceil((t1 - t0) / max_step_s - 1e-9)));
+  if (steps > o.max_steps) {
+    s.success = false;
+    s.message = "too many integrator steps";
+    return s;
+  }
+  const double h = (t1 - t0) / static_cast<double>(steps);
+  Eigen::VectorXd f0(x.size()), k(x.size()), y(x.size());
+  double t = t0;
+  for (long i = 1; i <= steps; ++i) {
+    prepare(t, x, f0);
+    ++s.evaluations;
+    solve(h, f0, k);
+    y = x + h * k;
+    const double t_next = i < steps ? t0 + static_cast<double>(i) * h : t1;
+    if (step_done) step_done(t, x, t_next, y);
+    x = y;
+    t = t_next;
+    ++s.accepted_steps;
+  }
+  s.last_step_s = h;
+  return s;
 }
 
-std::string w_method_name(WMethod method) { return method == WMethod::kRos34pw2 ? "ros34pw2" : "rosenbrock"; }
+DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
+                                        double t1, Eigen::VectorXd& x, const RosenbrockOptions& o, const WStepDone& step_done) {
+  switch (method) {
+    case WMethod::kRos34pw2: return integrate_ros34pw2(f, prepare, solve, t0, t1, x, o, step_done);
+    case WMethod::kLinearlyImplicitEuler: return integrate_linearly_implicit_euler(f, prepare, solve, t0, t1, x, o, step_done);
+    case WMethod::kRos2: break;
+  }
+  return integrate_ros2(f, prepare, solve, t0, t1, x, o, step_done);
+}
+
+std::string w_method_name(WMethod method) {
+  switch (method) {
+    case WMethod::kRos34pw2: return "ros34pw2";
+    case WMethod::kLinearlyImplicitEuler: return "linearly_implicit_euler";
+    case WMethod::kRos2: break;
+  }
+  return "rosenbrock";
+}
 
 std::optional<WMethod> w_method_named(std::string_view name) {
   if (name == "ros34pw2") return WMethod::kRos34pw2;
+  if (name == "linearly_implicit_euler") return WMethod::kLinearlyImplicitEuler;
   if (name == "rosenbrock") return WMethod::kRos2;
   return std::nullopt;
 }

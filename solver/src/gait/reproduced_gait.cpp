@@ -218,6 +218,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   for (const auto& s : contacts.spheres) r.contact_names.push_back(s.name);
   MuscleDrivenWorkspace ws(sys);
   MuscleDrivenJacobian jac;
+  jac.whole_w = o.integrator == WMethod::kLinearlyImplicitEuler;  // no error control to bound its steps
 
   // Initial state on the reference, muscles at the CPG's excitations.
   Eigen::VectorXd x = Eigen::VectorXd::Zero(sys.state_size()), xdot(sys.state_size()), q_ref(nq), u_ref(nq), a_ref(nq);

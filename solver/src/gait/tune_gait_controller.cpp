@@ -125,6 +125,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     double speed, step_m;
     Eigen::Vector3d push_N_s;
     double tolerance;
+    WMethod integrator;
     double step_at = 0.5;  // the step's edge under the pelvis, a fraction of the horizon
     double stop_at = -1;   // a walk -> stand trial: the stop, a fraction of the horizon (< 0: none)
     bool same_ground_and_knob(const Walk& o) const {
@@ -132,7 +133,8 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     }
     // The level walk a walk -> stand trial runs as, step for step, until its stop.
     bool is_level_walk_of(const Walk& stop) const {
-      return stop_at < 0 && stop.stop_at >= 0 && speed == stop.speed && step_m == 0 && push_N_s.isZero() && tolerance == stop.tolerance;
+      return stop_at < 0 && stop.stop_at >= 0 && speed == stop.speed && step_m == 0 && push_N_s.isZero() && tolerance == stop.tolerance &&
+             integrator == stop.integrator;
     }
     // A level walk's first walk -> stand trial among walks (-1: none): it resumes from this walk's
     // state at its stop.
@@ -142,24 +144,30 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       return -1;
     }
   };
-  std::vector<double> tolerances = t.integrator_tolerances;
-  if (tolerances.empty()) tolerances.push_back(base.integrator_tolerance);
-  for (double tol : tolerances)
+  // The integrations each walk is taken in: the options' own, or one per tolerance. The linearly
+  // implicit Euler method has no tolerance: its own walk, and one in ROS34PW2 at each tolerance.
+  std::vector<std::pair<WMethod, double>> integrations;
+  if (t.integrator_tolerances.empty() || base.integrator == WMethod::kLinearlyImplicitEuler)
+    integrations.emplace_back(base.integrator, base.integrator_tolerance);
+  for (double tol : t.integrator_tolerances) {
     if (!(tol > 0)) throw std::invalid_argument("tune_gait_controller: integrator tolerances must be positive");
+    integrations.emplace_back(base.integrator == WMethod::kLinearlyImplicitEuler ? WMethod::kRos34pw2 : base.integrator, tol);
+  }
   if (!t.ground_steps_m.empty() && t.ground_step_at.empty()) throw std::invalid_argument("tune_gait_controller: ground steps need a place (ground_step_at)");
   for (double at : t.ground_step_at)
     if (!(at > 0 && at < 1)) throw std::invalid_argument("tune_gait_controller: a ground step's place must lie inside the horizon (0 < ground_step_at < 1)");
   std::vector<Walk> walks;
   auto at_each_tolerance = [&](Walk w) {
-    for (double tol : tolerances) w.tolerance = tol, walks.push_back(w);
+    for (const auto& [method, tol] : integrations) w.integrator = method, w.tolerance = tol, walks.push_back(w);
   };
-  for (double speed : t.speeds) at_each_tolerance({speed, 0.0, Eigen::Vector3d::Zero(), 0.0});
+  const WMethod any = base.integrator;  // set by at_each_tolerance
+  for (double speed : t.speeds) at_each_tolerance({speed, 0.0, Eigen::Vector3d::Zero(), 0.0, any});
   for (double step : t.ground_steps_m)
-    for (double at : t.ground_step_at) at_each_tolerance({1.0, step, Eigen::Vector3d::Zero(), 0.0, at});
-  for (const Eigen::Vector3d& push : t.pushes_N_s) at_each_tolerance({1.0, 0.0, push, 0.0});
+    for (double at : t.ground_step_at) at_each_tolerance({1.0, step, Eigen::Vector3d::Zero(), 0.0, any, at});
+  for (const Eigen::Vector3d& push : t.pushes_N_s) at_each_tolerance({1.0, 0.0, push, 0.0, any});
   for (double at : t.stop_at) {
     if (!(at > 0 && at < 1)) throw std::invalid_argument("tune_gait_controller: a stop must lie inside the horizon (0 < stop_at < 1)");
-    at_each_tolerance({1.0, 0.0, Eigen::Vector3d::Zero(), 0.0, 0.5, at});
+    at_each_tolerance({1.0, 0.0, Eigen::Vector3d::Zero(), 0.0, any, 0.5, at});
   }
   // One candidate's simulations and score; walked receives the shortest time it walked. The start's
   // errors (the inputs') propagate; a candidate's score as falling at once.
@@ -198,7 +206,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       o.duration_s = horizon_s;
       o.amplitude = base.amplitude * k.amplitude_factor;
       o.speed = base.speed * w.speed;
-      o.integrator_tolerance = w.tolerance;
+      o.integrator = w.integrator, o.integrator_tolerance = w.tolerance;
       if (w.step_m != 0) o.ground_step_m = w.step_m, o.ground_step_time_s = w.step_at * horizon_s;
       if (w.push_N_s.norm() > 0) o.push_time_s = 0.5 * horizon_s, o.push_duration_s = 0.1, o.push_force_N = w.push_N_s / 0.1;
       if (w.stop_at >= 0) o.stop_time_s = w.stop_at * horizon_s;

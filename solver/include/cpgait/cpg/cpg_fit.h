@@ -46,9 +46,10 @@ struct CpgController {
   // error made up (default 0: none), and the right and left feet's heel-strike phases (0, 0.5).
   double entrainment = 0, entrainment_phase_r = 0, entrainment_phase_l = 0.5;
   // The simulation it was tuned in (ReproducedGaitOptions): the controller's interval (s), the
-  // integrator ("ros34pw2" or "rosenbrock") and its tolerance. A replay runs in it unless told
-  // otherwise: updated at another interval it is another controller, and a closed-loop walk tuned at
-  // one tolerance may fall at another. 0 and empty: not recorded (CPG JSONs before 2026-11-29).
+  // integrator (w_method_name: "ros34pw2", "rosenbrock" or "linearly_implicit_euler") and its
+  // tolerance. A replay runs in it unless told otherwise: updated at another interval it is another
+  // controller, and a closed-loop walk tuned at one tolerance may fall at another. 0 and empty: not
+  // recorded (CPG JSONs before 2026-11-29).
   double control_interval_s = 0, integrator_tolerance = 0;
   std::string integrator;
 

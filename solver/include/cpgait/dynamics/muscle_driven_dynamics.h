@@ -15,6 +15,7 @@
 // when a muscle is stretched (late swing's hamstrings by ~5x on gait2392), because the tendon does
 // not take up any of the stretch.
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <vector>
 
 #include "cpgait/activation/actuators.h"
@@ -107,8 +108,15 @@ struct MuscleDrivenJacobian {
   // Hunt-Crossley normal force); a caller adds its own generalized forces' (passive joints).
   Eigen::MatrixXd damping, stiffness;
   Eigen::MatrixXd muscle_damping;  // rigid tendons: R^T diag(dF/dV) R, formed once per prepare
-  Eigen::MatrixXd W;  // M + gamma h (R^T diag(dF/dV) R + D) + (gamma h)^2 (K + R^T diag(e) R), factored in llt
+  // The W a one-stage method without error control needs (default false: the symmetric W above,
+  // factored by Cholesky). True: the contact's damping as it is, -dF/dv unsymmetrized (friction
+  // follows the normal force, which follows the normal speed; the symmetric part halved that
+  // coupling and the linearly implicit Euler diverged on subject01 at 2 ms), the rigid tendons'
+  // R^T diag(dF/dL) R in the stiffness, and W factored by LU.
+  bool whole_w = false;
+  Eigen::MatrixXd W;  // M + gamma h (R^T diag(dF/dV) R + D) + (gamma h)^2 (K + R^T diag(e) R), factored in llt (lu: whole_w)
   TreeCholesky llt;
+  Eigen::PartialPivLU<Eigen::MatrixXd> lu;  // whole_w's factor
   double factored_gamma_h = -1;   // the gamma h that llt holds (a step's stages share it); < 0: none
   Eigen::VectorXd g, b, stretch;  // w_solve's scratch
 };

@@ -51,9 +51,18 @@ DormandPrinceSummary integrate_ros34pw2(const OdeFunction& f, const WPrepare& pr
                                         double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
                                         const WStepDone& step_done = {});
 
+// The linearly implicit Euler method (Rosenbrock-Euler, Hairer & Wanner IV.7): x_new = x + h (I - h J)^-1
+// f(t, x). First order with any J, L-stable with the exact one; one evaluation (prepare's) and one
+// solve per step. It has no error estimate: it takes equal steps of at most max_step_s, ending at t1
+// (the tolerances are unused). f is not called.
+DormandPrinceSummary integrate_linearly_implicit_euler(const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
+                                                       double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
+                                                       const WStepDone& step_done = {});
+
 // The W-method a caller chose, and its integration.
-enum class WMethod { kRos2, kRos34pw2 };
-// Their names in options and files: "rosenbrock" (ROS2) and "ros34pw2"; nullopt for another name.
+enum class WMethod { kRos2, kRos34pw2, kLinearlyImplicitEuler };
+// Their names in options and files: "rosenbrock" (ROS2), "ros34pw2" and "linearly_implicit_euler";
+// nullopt for another name.
 std::string w_method_name(WMethod method);
 std::optional<WMethod> w_method_named(std::string_view name);
 DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,

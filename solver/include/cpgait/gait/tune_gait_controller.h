@@ -62,7 +62,8 @@ struct GaitTuningOptions {
   // and tolerance) fell before the stop is not simulated: it is that walk until the stop.
   std::vector<double> stop_at;
   // Integrator tolerances (ReproducedGaitOptions::integrator_tolerance) every walk above is taken at,
-  // each one more simulation, counted as the speeds' are (default: none, the gait options' own alone);
+  // each one more simulation, counted as the speeds' are (default: none, the gait options' own alone;
+  // with the linearly implicit Euler method, which has none, its own walk and one in ROS34PW2 at each);
   // a walk that fell at one is not taken again at the next, its fall counted there too. A controller
   // tuned at one tolerance may walk there by the integration error's accident alone (measured:
   // test_gait.cpp).
