@@ -218,9 +218,8 @@ static void replay_tuned_walk(benchmark::State& state, const services::TrialInpu
 // The autonomous gait on subject01 (gait2392: 23 coordinates, 92 Thelen muscles, rigid tendons) with
 // the gait stage's "integrator": "linearly_implicit_euler", one thread: the stage's knob-1 controller
 // at its defaults otherwise (604 simulations, about 40 s on 2 cores before timing; it walks 10 s)
-// replayed for 10 s as `cpgait gait` replays it. Counter: simulated seconds per wall-clock second
-// (issue 22's target: 30). At ROS34PW2, the default, the same tuning takes about four minutes
-// (docs/gait-speed.md gives that walk's figures).
+// replayed for 10 s as `replay_tuned_walk` says. With ROS34PW2, the default, the same tuning took 2.5
+// times as long on the same day (docs/gait-speed.md).
 static void BM_ReproducedGaitSubject01Tuned(benchmark::State& state) {
   const std::string pl = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/pipeline/";
   const std::string generic = std::string(CPGAIT_SHARED_DIR) + "/reference/opensim/gait2392/model/gait2392_simbody.osim";
