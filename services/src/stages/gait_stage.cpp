@@ -201,9 +201,7 @@ nlohmann::json walk_at_tolerances(const Model& model, const CpgModel& cpg, const
   std::vector<std::string> fell;
   for (double tolerance : tolerances) {
     ReproducedGaitOptions o = options;
-    o.integrator_tolerance = tolerance;
-    // A fixed-step walk has no tolerance: its check is the walk in ROS34PW2's error-controlled physics.
-    if (o.integrator == WMethod::kLinearlyImplicitEuler) o.integrator = WMethod::kRos34pw2;
+    o.integrator = at_tolerance(o.integrator), o.integrator_tolerance = tolerance;
     ProgressShare walk_progress = progress.next();
     const ReproducedGaitResult g = reproduce_gait(model, cpg, reference, feet, o, &walk_progress);
     nlohmann::json run = walk_outcome(g);
@@ -215,7 +213,7 @@ nlohmann::json walk_at_tolerances(const Model& model, const CpgModel& cpg, const
   if (walked && !fell.empty()) {
     std::string list;
     for (const std::string& f : fell) list += (list.empty() ? "" : ", ") + f;
-    if (options.integrator == WMethod::kLinearlyImplicitEuler)
+    if (at_tolerance(options.integrator) != options.integrator)
       summary["warnings"].push_back("the walk falls with ros34pw2 at tolerance " + list +
                                     " but not in the linearly implicit Euler's steps: the controller walks partly by that method's "
                                     "integration error, not by its own stability alone");

@@ -191,6 +191,8 @@ std::string w_method_name(WMethod method) {
   return "rosenbrock";
 }
 
+WMethod at_tolerance(WMethod method) { return method == WMethod::kLinearlyImplicitEuler ? WMethod::kRos34pw2 : method; }
+
 std::optional<WMethod> w_method_named(std::string_view name) {
   if (name == "ros34pw2") return WMethod::kRos34pw2;
   if (name == "linearly_implicit_euler") return WMethod::kLinearlyImplicitEuler;

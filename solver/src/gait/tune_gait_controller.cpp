@@ -125,9 +125,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     double speed, step_m;
     Eigen::Vector3d push_N_s;
     double tolerance;
-    WMethod integrator;
     double step_at = 0.5;  // the step's edge under the pelvis, a fraction of the horizon
     double stop_at = -1;   // a walk -> stand trial: the stop, a fraction of the horizon (< 0: none)
+    WMethod integrator = WMethod::kRos34pw2;  // set with the tolerance
     bool same_ground_and_knob(const Walk& o) const {
       return speed == o.speed && step_m == o.step_m && push_N_s == o.push_N_s && step_at == o.step_at && stop_at == o.stop_at;
     }
@@ -144,14 +144,14 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
       return -1;
     }
   };
-  // The integrations each walk is taken in: the options' own, or one per tolerance. The linearly
-  // implicit Euler method has no tolerance: its own walk, and one in ROS34PW2 at each tolerance.
+  // The integrations each walk is taken in: the options' own, or one per tolerance. A method without
+  // a tolerance keeps its own walk and adds one per tolerance in the method at_tolerance gives.
   std::vector<std::pair<WMethod, double>> integrations;
-  if (t.integrator_tolerances.empty() || base.integrator == WMethod::kLinearlyImplicitEuler)
+  if (t.integrator_tolerances.empty() || at_tolerance(base.integrator) != base.integrator)
     integrations.emplace_back(base.integrator, base.integrator_tolerance);
   for (double tol : t.integrator_tolerances) {
     if (!(tol > 0)) throw std::invalid_argument("tune_gait_controller: integrator tolerances must be positive");
-    integrations.emplace_back(base.integrator == WMethod::kLinearlyImplicitEuler ? WMethod::kRos34pw2 : base.integrator, tol);
+    integrations.emplace_back(at_tolerance(base.integrator), tol);
   }
   if (!t.ground_steps_m.empty() && t.ground_step_at.empty()) throw std::invalid_argument("tune_gait_controller: ground steps need a place (ground_step_at)");
   for (double at : t.ground_step_at)
@@ -160,14 +160,13 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   auto at_each_tolerance = [&](Walk w) {
     for (const auto& [method, tol] : integrations) w.integrator = method, w.tolerance = tol, walks.push_back(w);
   };
-  const WMethod any = base.integrator;  // set by at_each_tolerance
-  for (double speed : t.speeds) at_each_tolerance({speed, 0.0, Eigen::Vector3d::Zero(), 0.0, any});
+  for (double speed : t.speeds) at_each_tolerance({speed, 0.0, Eigen::Vector3d::Zero(), 0.0});
   for (double step : t.ground_steps_m)
-    for (double at : t.ground_step_at) at_each_tolerance({1.0, step, Eigen::Vector3d::Zero(), 0.0, any, at});
-  for (const Eigen::Vector3d& push : t.pushes_N_s) at_each_tolerance({1.0, 0.0, push, 0.0, any});
+    for (double at : t.ground_step_at) at_each_tolerance({1.0, step, Eigen::Vector3d::Zero(), 0.0, at});
+  for (const Eigen::Vector3d& push : t.pushes_N_s) at_each_tolerance({1.0, 0.0, push, 0.0});
   for (double at : t.stop_at) {
     if (!(at > 0 && at < 1)) throw std::invalid_argument("tune_gait_controller: a stop must lie inside the horizon (0 < stop_at < 1)");
-    at_each_tolerance({1.0, 0.0, Eigen::Vector3d::Zero(), 0.0, any, 0.5, at});
+    at_each_tolerance({1.0, 0.0, Eigen::Vector3d::Zero(), 0.0, 0.5, at});
   }
   // One candidate's simulations and score; walked receives the shortest time it walked. The start's
   // errors (the inputs') propagate; a candidate's score as falling at once.

@@ -64,6 +64,9 @@ enum class WMethod { kRos2, kRos34pw2, kLinearlyImplicitEuler };
 // Their names in options and files: "rosenbrock" (ROS2), "ros34pw2" and "linearly_implicit_euler";
 // nullopt for another name.
 std::string w_method_name(WMethod method);
+// The method a walk "at a tolerance" takes: the method itself, or ROS34PW2 for the linearly implicit
+// Euler method, which has no tolerance (the gait's tolerance checks and tuning tolerances).
+WMethod at_tolerance(WMethod method);
 std::optional<WMethod> w_method_named(std::string_view name);
 DormandPrinceSummary integrate_w_method(WMethod method, const OdeFunction& f, const WPrepare& prepare, const WSolve& solve, double t0,
                                         double t1, Eigen::VectorXd& x, const RosenbrockOptions& options = {},
