@@ -283,6 +283,18 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
       if (whole) {
         EXPECT_GT(asymmetry, 1e-3);
         EXPECT_GT(jac.dF_dL.maxCoeff(), 0.0);  // the force-length curves' stiffness, in jac.stiffness
+        // Without the contact terms the stiffness is the muscles' R^T diag(dF/dL) R alone, formed in
+        // one pass with the damping's R^T diag(dF/dV) R: both as the dense products give them.
+        MuscleDrivenSystem muscles_only = sys;
+        muscles_only.contacts = nullptr;
+        MuscleDrivenJacobian own;
+        own.whole_w = true;
+        muscle_driven_jacobian(muscles_only, x, u, ws, own, f0);
+        const Eigen::MatrixXd& R = own.moment_arm;
+        const Eigen::MatrixXd K = R.transpose() * own.dF_dL.asDiagonal() * R, D = R.transpose() * own.dF_dV.asDiagonal() * R;
+        EXPECT_LT((own.stiffness - K).norm(), 1e-12 * K.norm());
+        EXPECT_LT((own.muscle_damping - D).norm(), 1e-12 * D.norm());
+        EXPECT_GT((jac.stiffness - own.stiffness).trace(), 0.0);  // the contact's share
       } else {
         EXPECT_LT(asymmetry, 1e-12);
         EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(jac.damping).eigenvalues().minCoeff(), -1e-9);

@@ -171,6 +171,23 @@ void add_moment_arm_product(const MuscleDrivenJacobian& jac, const Eigen::Vector
   }
 }
 
+// a += R^T diag(w_a) R and b += R^T diag(w_b) R in one pass, each sum as add_moment_arm_product's
+// (a zero weight adds zeros to sums that start at +0: the same values).
+void add_moment_arm_products(const MuscleDrivenJacobian& jac, const Eigen::VectorXd& w_a, Eigen::MatrixXd& a,
+                             const Eigen::VectorXd& w_b, Eigen::MatrixXd& b) {
+  for (int m = 0; m < static_cast<int>(jac.crossed.size()); ++m) {
+    if (w_a[m] == 0 && w_b[m] == 0) continue;
+    for (int i : jac.crossed[m]) {
+      const double r_i = jac.moment_arm(m, i), wr_a = w_a[m] * r_i, wr_b = w_b[m] * r_i;
+      for (int j : jac.crossed[m]) {
+        const double r_j = jac.moment_arm(m, j);
+        a(i, j) += wr_a * r_j;
+        b(i, j) += wr_b * r_j;
+      }
+    }
+  }
+}
+
 // out += scale R^T w and out = R x, over each muscle's crossed coordinates (R is ~1/6 full on gait2392).
 void add_moment_arm_transpose_product(const MuscleDrivenJacobian& jac, const Eigen::VectorXd& w, double scale, Eigen::VectorXd& out) {
   for (int m = 0; m < static_cast<int>(jac.crossed.size()); ++m) {
@@ -252,15 +269,15 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   for (int c = 0; c < nq; ++c)  // down the columns: the matrix is column-major
     for (int m = 0; m < nm; ++m)
       if (jac.moment_arm(m, c) != 0) jac.crossed[m].push_back(c);
+  jac.damping.setZero(nq, nq);
+  jac.stiffness.setZero(nq, nq);
   if (!sys.compliant_tendons && nm > 0) {
     jac.muscle_damping.setZero(nq, nq);
-    add_moment_arm_product(jac, jac.dF_dV, 1.0, jac.muscle_damping);
+    if (jac.whole_w) add_moment_arm_products(jac, jac.dF_dV, jac.muscle_damping, jac.dF_dL, jac.stiffness);
+    else add_moment_arm_product(jac, jac.dF_dV, 1.0, jac.muscle_damping);
   }
   // Contact: each sphere's force (as the evaluation above found it) against its contact point's
   // velocity and its height, by differences, mapped through the contact point's velocity Jacobian.
-  jac.damping.setZero(nq, nq);
-  jac.stiffness.setZero(nq, nq);
-  if (!sys.compliant_tendons && jac.whole_w && nm > 0) add_moment_arm_product(jac, jac.dF_dL, 1.0, jac.stiffness);
   if (sys.contacts && !sys.contacts->spheres.empty()) {
     const ContactSet& set = *sys.contacts;
     const double* u = x.data() + nq;
