@@ -303,6 +303,7 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
     const Eigen::VectorXd rhs = Eigen::VectorXd::Random(n);
     const double gh = 2e-3;
     muscle_driven_w_solve(sys, jac, gh, rhs, k);
+    if (whole) EXPECT_TRUE(jac.lu.sparse()) << "the whole W is on the tree's pattern, its symmetric part definite";
     // Apply W = I - gh J block by block.
     Eigen::VectorXd Wk = k;
     Wk.head(nq) -= gh * k.segment(nq, nq);

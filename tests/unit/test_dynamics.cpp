@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rnea.h"
 #include "cpgait/dynamics/tree_cholesky.h"
+#include "cpgait/dynamics/tree_lu.h"
 #include "cpgait/model/osim_reader.h"
 #include "cpgait/signal/lowpass.h"
 #include "test_support.h"
@@ -515,6 +517,73 @@ TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
   EXPECT_TRUE(reversed.success());
   EXPECT_FALSE(reversed.sparse());
   EXPECT_LT((reversed.solve(Eigen::Vector2d(1, 0)) - spd.llt().solve(Eigen::Vector2d(1, 0))).norm(), 1e-12);
+}
+
+TEST(TreeLU, SolvesUnsymmetricBranchCouplingsAsDenseLUOnEveryReferenceModel) {
+  const std::vector<std::filesystem::path> files = walker_and_reference_models();
+  std::mt19937 rng(6);
+  int models = 0;
+  for (const auto& e : files) {
+    const Model m = e == "walker" ? walker() : read_osim(e.string()).model;
+    const int n = m.num_coordinates();
+    if (n < 2) continue;
+    ForwardDynamicsWorkspace ws(m);
+    Eigen::VectorXd q(n);
+    for (int c = 0; c < n; ++c) q[c] = m.coordinates[c].default_value + std::uniform_real_distribution<double>(-0.3, 0.3)(rng);
+    forward_kinematics(m, q.data(), ws.kinematics);
+    motion_subspace(m, q.data(), ws.kinematics, ws.S);
+    crba(m, ws.kinematics, ws.S, ws.M, ws.composite);
+    if (ws.M.llt().info() != Eigen::Success) continue;  // massless chains (BothLegs)
+    ++models;
+    const std::vector<int> parent = coordinate_parents(m);
+    // An unsymmetric coupling along the deepest chain (a foot's contact damping: friction follows the
+    // normal force), skew and symmetric parts alike, kept small beside M so the symmetric part stays definite.
+    const int deep = n - 1;
+    std::vector<int> chain;
+    for (int j = deep; j >= 0; j = parent[j]) chain.push_back(j);
+    Eigen::MatrixXd A = ws.M;
+    const double scale = 0.2 * ws.M.diagonal().minCoeff();
+    for (int i : chain)
+      for (int j : chain) A(i, j) += scale * std::uniform_real_distribution<double>(-1, 1)(rng);
+    ASSERT_GT((A - A.transpose()).norm(), 0.0);
+    TreeLU tree(parent);
+    tree.compute(A);
+    EXPECT_TRUE(tree.sparse()) << e;
+    const Eigen::MatrixXd B = Eigen::MatrixXd::Random(n, 3);
+    const Eigen::MatrixXd x = tree.solve(B), x_dense = A.partialPivLu().solve(B);
+    EXPECT_LT((x - x_dense).norm(), 1e-9 * x_dense.norm()) << e;
+    EXPECT_LT((A * x - B).norm(), 1e-9 * B.norm()) << e;
+    Eigen::VectorXd b = B.col(0);
+    tree.solve_in_place(b);
+    EXPECT_LT((b - x_dense.col(0)).norm(), 1e-9 * x_dense.norm()) << e;
+    // One entry on another branch (the last coordinate has no descendants), in the upper triangle
+    // only: dense, and still the solution.
+    int other = -1;
+    for (int i = 0; i < n && other < 0; ++i)
+      if (std::find(chain.begin(), chain.end(), i) == chain.end()) other = i;
+    if (other >= 0) {
+      Eigen::MatrixXd C = A;
+      C(std::min(other, deep), std::max(other, deep)) += scale;
+      tree.compute(C);
+      EXPECT_FALSE(tree.sparse()) << e;
+      EXPECT_LT((C * tree.solve(B) - B).norm(), 1e-9 * B.norm()) << e;
+    }
+  }
+  EXPECT_GE(models, 1);
+  // A pivot that is not positive (the symmetric part indefinite) and a parent after its child: dense.
+  const Eigen::Matrix2d indefinite = (Eigen::Matrix2d() << 1, 2, 3, -1).finished();
+  TreeLU chain({-1, 0});
+  chain.compute(indefinite);
+  EXPECT_FALSE(chain.sparse());
+  EXPECT_LT((indefinite * chain.solve(Eigen::Vector2d(1, 2)) - Eigen::Vector2d(1, 2)).norm(), 1e-12);
+  const Eigen::Matrix2d unsymmetric = (Eigen::Matrix2d() << 2, 1, -1, 2).finished();
+  chain.compute(unsymmetric);
+  EXPECT_TRUE(chain.sparse());
+  EXPECT_LT((chain.solve(Eigen::Vector2d(1, 0)) - Eigen::Vector2d(0.4, 0.2)).norm(), 1e-12);  // by hand
+  TreeLU reversed({1, -1});
+  reversed.compute(unsymmetric);
+  EXPECT_FALSE(reversed.sparse());
+  EXPECT_LT((reversed.solve(Eigen::Vector2d(1, 0)) - Eigen::Vector2d(0.4, 0.2)).norm(), 1e-12);
 }
 
 TEST(ForwardDynamics, InverseOfInverseDynamics) {

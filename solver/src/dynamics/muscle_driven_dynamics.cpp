@@ -220,6 +220,7 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   const int nm = sys.num_muscles(), nq = sys.num_coordinates();
   jac.M = ws.fd.M;
   if (jac.llt.size() != nq) jac.llt = TreeCholesky(coordinate_parents(model));
+  if (jac.whole_w && jac.lu.size() != nq) jac.lu = TreeLU(coordinate_parents(model));
   jac.moment_arm = ws.geometry.moment_arm_m;
   jac.da_da.resize(nm);
   jac.dl_dl.setZero(nm);
@@ -366,7 +367,7 @@ void muscle_driven_w_solve(const MuscleDrivenSystem& sys, MuscleDrivenJacobian& 
     stretch.array() *= jac.tendon_stiffness.array();
     add_moment_arm_transpose_product(jac, stretch, -gh, b);
   }
-  k.segment(nq, nq) = jac.whole_w ? Eigen::VectorXd(jac.lu.solve(b)) : jac.llt.solve(b);
+  k.segment(nq, nq) = jac.whole_w ? jac.lu.solve(b) : jac.llt.solve(b);
   k.head(nq) = rhs.head(nq) + gh * k.segment(nq, nq);
   if (tendon_stiffness) {
     // The fibres' response to the joints' motion over the step, where the coupling was kept.

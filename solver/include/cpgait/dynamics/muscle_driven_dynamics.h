@@ -15,7 +15,6 @@
 // when a muscle is stretched (late swing's hamstrings by ~5x on gait2392), because the tendon does
 // not take up any of the stretch.
 #include <Eigen/Core>
-#include <Eigen/LU>
 #include <vector>
 
 #include "cpgait/activation/actuators.h"
@@ -24,6 +23,7 @@
 #include "cpgait/dynamics/contact.h"
 #include "cpgait/dynamics/forward_dynamics.h"
 #include "cpgait/dynamics/tree_cholesky.h"
+#include "cpgait/dynamics/tree_lu.h"
 #include "cpgait/muscles/muscle_path.h"
 
 namespace cpgait {
@@ -112,11 +112,12 @@ struct MuscleDrivenJacobian {
   // factored by Cholesky). True: the contact's damping as it is, -dF/dv unsymmetrized (friction
   // follows the normal force, which follows the normal speed; the symmetric part halved that
   // coupling and the linearly implicit Euler diverged on subject01 at 2 ms), the rigid tendons'
-  // R^T diag(dF/dL) R in the stiffness, and W factored by LU.
+  // R^T diag(dF/dL) R in the stiffness, and W factored by TreeLU (elimination on the tree's pattern
+  // without pivoting; partial pivoting where a pivot is not positive).
   bool whole_w = false;
   Eigen::MatrixXd W;  // M + gamma h (R^T diag(dF/dV) R + D) + (gamma h)^2 (K + R^T diag(e) R), factored in llt (lu: whole_w)
   TreeCholesky llt;
-  Eigen::PartialPivLU<Eigen::MatrixXd> lu;  // whole_w's factor
+  TreeLU lu;  // whole_w's factor
   double factored_gamma_h = -1;   // the gamma h that llt holds (a step's stages share it); < 0: none
   Eigen::VectorXd g, b, stretch;  // w_solve's scratch
 };

@@ -11,13 +11,9 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "cpgait/model/model.h"
+#include "cpgait/dynamics/tree_sparsity.h"
 
 namespace cpgait {
-
-// Each coordinate's parent in the branch-induced order: the joint's previous coordinate, else the
-// last coordinate of the nearest ancestor joint that has any; -1 at the root.
-std::vector<int> coordinate_parents(const Model& model);
 
 class TreeCholesky {
  public:
@@ -28,7 +24,7 @@ class TreeCholesky {
   // Success() false if A is not positive definite.
   void compute(const Eigen::MatrixXd& A);
   bool success() const { return ok_; }
-  int size() const { return static_cast<int>(parent_.size()); }
+  int size() const { return pattern_.size(); }
   // Whether the last compute used the tree's sparsity (for tests).
   bool sparse() const { return sparse_; }
 
@@ -39,19 +35,20 @@ class TreeCholesky {
       return;
     }
     const int n = size();
+    const std::vector<int>& offset = pattern_.offset;
     for (Eigen::Index col = 0; col < x.cols(); ++col) {
       // L^T y = b, leaves first; then L x = y, root first.
       for (int i = n - 1; i >= 0; --i) {
-        const double* row = &values_[offset_[i]];
-        const int* chain = &chain_[offset_[i]];
+        const double* row = &values_[offset[i]];
+        const int* chain = &pattern_.chain[offset[i]];
         const double xi = x(i, col) /= row[0];
-        for (int t = 1; t < offset_[i + 1] - offset_[i]; ++t) x(chain[t], col) -= row[t] * xi;
+        for (int t = 1; t < offset[i + 1] - offset[i]; ++t) x(chain[t], col) -= row[t] * xi;
       }
       for (int i = 0; i < n; ++i) {
-        const double* row = &values_[offset_[i]];
-        const int* chain = &chain_[offset_[i]];
+        const double* row = &values_[offset[i]];
+        const int* chain = &pattern_.chain[offset[i]];
         double xi = x(i, col);
-        for (int t = 1; t < offset_[i + 1] - offset_[i]; ++t) xi -= row[t] * x(chain[t], col);
+        for (int t = 1; t < offset[i + 1] - offset[i]; ++t) xi -= row[t] * x(chain[t], col);
         x(i, col) = xi / row[0];
       }
     }
@@ -64,13 +61,11 @@ class TreeCholesky {
   }
 
  private:
-  std::vector<int> parent_;
-  // Row i of L over its chain (i, its parent, ..., the root): values_[offset_[i] + t] is L(i, chain_[offset_[i] + t]).
-  // A row's ancestors' chains are suffixes of its own, so the updates run along contiguous rows.
-  std::vector<int> offset_, chain_;
+  BranchPattern pattern_;
+  // Row i of L over its chain: values_[offset[i] + t] is L(i, chain[offset[i] + t]). A row's
+  // ancestors' chains are suffixes of its own, so the updates run along contiguous rows.
   std::vector<double> values_;
-  std::vector<std::pair<int, int>> outside_;  // the lower triangle's entries outside the pattern
-  bool tree_ = false, sparse_ = false, ok_ = false;
+  bool sparse_ = false, ok_ = false;
   Eigen::LLT<Eigen::MatrixXd> dense_;
 };
 
