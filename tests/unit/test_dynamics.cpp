@@ -446,6 +446,20 @@ TEST(ArticulatedBody, AccelerationsAreCrbasOnEveryReferenceModel) {
   }
 }
 
+namespace {
+// The model's mass matrix at its default pose moved by up to 0.3 (rad or m) per coordinate.
+Eigen::MatrixXd mass_matrix_near_default(const Model& m, std::mt19937& rng) {
+  ForwardDynamicsWorkspace ws(m);
+  Eigen::VectorXd q(m.num_coordinates());
+  for (int c = 0; c < m.num_coordinates(); ++c)
+    q[c] = m.coordinates[c].default_value + std::uniform_real_distribution<double>(-0.3, 0.3)(rng);
+  forward_kinematics(m, q.data(), ws.kinematics);
+  motion_subspace(m, q.data(), ws.kinematics, ws.S);
+  crba(m, ws.kinematics, ws.S, ws.M, ws.composite);
+  return ws.M;
+}
+}  // namespace
+
 TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
   const std::vector<std::filesystem::path> files = walker_and_reference_models();
   std::mt19937 rng(5);
@@ -455,25 +469,20 @@ TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
     const int n = m.num_coordinates();
     if (n < 2) continue;
     ++models;
-    ForwardDynamicsWorkspace ws(m);
-    Eigen::VectorXd q(n);
-    for (int c = 0; c < n; ++c) q[c] = m.coordinates[c].default_value + std::uniform_real_distribution<double>(-0.3, 0.3)(rng);
-    forward_kinematics(m, q.data(), ws.kinematics);
-    motion_subspace(m, q.data(), ws.kinematics, ws.S);
-    crba(m, ws.kinematics, ws.S, ws.M, ws.composite);
+    const Eigen::MatrixXd M = mass_matrix_near_default(m, rng);
     const std::vector<int> parent = coordinate_parents(m);
-    if (ws.M.llt().info() != Eigen::Success) {  // massless chains (BothLegs): refused alike
+    if (M.llt().info() != Eigen::Success) {  // massless chains (BothLegs): refused alike
       TreeCholesky tree(parent);
-      tree.compute(ws.M);
+      tree.compute(M);
       EXPECT_FALSE(tree.success()) << e;
       continue;
     }
-    Eigen::MatrixXd A = ws.M;
+    Eigen::MatrixXd A = M;
     // A chain's coupling: the deepest coordinate with its ancestors (as a muscle or a contact adds).
     int deep = n - 1;
     for (int j = deep; j >= 0; j = parent[j])
       for (int i = deep; i >= 0; i = parent[i]) A(i, j) += 0.5;
-    for (const Eigen::MatrixXd* matrix : {&ws.M, &A}) {
+    for (const Eigen::MatrixXd* matrix : {&M, static_cast<const Eigen::MatrixXd*>(&A)}) {
       TreeCholesky tree(parent);
       tree.compute(*matrix);
       ASSERT_TRUE(tree.success()) << e;
@@ -527,13 +536,8 @@ TEST(TreeLU, SolvesUnsymmetricBranchCouplingsAsDenseLUOnEveryReferenceModel) {
     const Model m = e == "walker" ? walker() : read_osim(e.string()).model;
     const int n = m.num_coordinates();
     if (n < 2) continue;
-    ForwardDynamicsWorkspace ws(m);
-    Eigen::VectorXd q(n);
-    for (int c = 0; c < n; ++c) q[c] = m.coordinates[c].default_value + std::uniform_real_distribution<double>(-0.3, 0.3)(rng);
-    forward_kinematics(m, q.data(), ws.kinematics);
-    motion_subspace(m, q.data(), ws.kinematics, ws.S);
-    crba(m, ws.kinematics, ws.S, ws.M, ws.composite);
-    if (ws.M.llt().info() != Eigen::Success) continue;  // massless chains (BothLegs)
+    const Eigen::MatrixXd M = mass_matrix_near_default(m, rng);
+    if (M.llt().info() != Eigen::Success) continue;  // massless chains (BothLegs)
     ++models;
     const std::vector<int> parent = coordinate_parents(m);
     // An unsymmetric coupling along the deepest chain (a foot's contact damping: friction follows the
@@ -541,8 +545,8 @@ TEST(TreeLU, SolvesUnsymmetricBranchCouplingsAsDenseLUOnEveryReferenceModel) {
     const int deep = n - 1;
     std::vector<int> chain;
     for (int j = deep; j >= 0; j = parent[j]) chain.push_back(j);
-    Eigen::MatrixXd A = ws.M;
-    const double scale = 0.2 * ws.M.diagonal().minCoeff();
+    Eigen::MatrixXd A = M;
+    const double scale = 0.2 * M.diagonal().minCoeff();
     for (int i : chain)
       for (int j : chain) A(i, j) += scale * std::uniform_real_distribution<double>(-1, 1)(rng);
     ASSERT_GT((A - A.transpose()).norm(), 0.0);
