@@ -2,10 +2,11 @@
 // TreeCholesky's unsymmetric counterpart: A = U L by Gaussian elimination leaves first (the tree's
 // order reversed) without pivoting, U upper and L unit lower triangular, both on the branch pattern
 // (tree_sparsity.h), so nothing fills in. For a matrix whose symmetric part is positive definite -
-// a mass matrix plus a step's unsymmetric damping and stiffness - elimination without pivoting is
-// stable and every pivot positive (Golub & Van Loan, Matrix Computations, 4th ed., 4.2.2). A pivot
-// that is not positive, a nonzero outside the pattern in either triangle, or a parent after its
-// child: factored densely instead (Eigen's PartialPivLU); the solution is the same either way.
+// a mass matrix plus a step's unsymmetric damping and stiffness - every pivot is positive and the
+// elimination stays stable while the skew part is small beside the symmetric one (Golub & Van Loan,
+// Matrix Computations, 4.2, unsymmetric positive definite systems). A pivot that is not positive, a
+// nonzero outside the pattern in either triangle, or a parent after its child: factored densely
+// instead (Eigen's PartialPivLU); the solution is the same either way.
 #include <Eigen/Core>
 #include <Eigen/LU>
 #include <vector>
