@@ -1,8 +1,9 @@
-#include <algorithm>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <random>
+#include <utility>
 
 #include "cpgait/capture/input_error.h"
 #include "cpgait/dynamics/applied_loads.h"
@@ -482,7 +483,7 @@ TEST(TreeCholesky, SolvesMassMatricesAsDenseCholeskyOnEveryReferenceModel) {
     int deep = n - 1;
     for (int j = deep; j >= 0; j = parent[j])
       for (int i = deep; i >= 0; i = parent[i]) A(i, j) += 0.5;
-    for (const Eigen::MatrixXd* matrix : {&M, static_cast<const Eigen::MatrixXd*>(&A)}) {
+    for (const Eigen::MatrixXd* matrix : {&M, &std::as_const(A)}) {
       TreeCholesky tree(parent);
       tree.compute(*matrix);
       ASSERT_TRUE(tree.success()) << e;
