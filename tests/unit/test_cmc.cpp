@@ -273,6 +273,15 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
     }
     const Eigen::VectorXd u = Eigen::VectorXd::Constant(nm, 0.6);
     muscle_driven_prepare(sys, 0.0, x, u, none, ws, jac, f0);
+    // Each muscle's crossed coordinates: exactly its nonzero moment arms, ascending.
+    ASSERT_EQ(static_cast<int>(jac.crossed.size()), nm);
+    for (int j = 0; j < nm; ++j) {
+      std::vector<int> nonzero;
+      for (int c = 0; c < nq; ++c)
+        if (jac.moment_arm(j, c) != 0) nonzero.push_back(c);
+      EXPECT_EQ(jac.crossed[j], nonzero) << m.muscles[j].name;
+      EXPECT_FALSE(nonzero.empty()) << m.muscles[j].name;
+    }
     if (contact) {
       ASSERT_EQ(jac.damping.rows(), nq);
       EXPECT_GT(jac.damping.trace(), 0.0);
@@ -303,7 +312,9 @@ TEST(MuscleDrivenDynamics, StructuredWSolveInvertsItsJacobian) {
     const Eigen::VectorXd rhs = Eigen::VectorXd::Random(n);
     const double gh = 2e-3;
     muscle_driven_w_solve(sys, jac, gh, rhs, k);
-    if (whole) EXPECT_TRUE(jac.lu.sparse()) << "the whole W is on the tree's pattern, its symmetric part definite";
+    if (whole) {
+      EXPECT_TRUE(jac.lu.sparse()) << "the whole W is on the tree's pattern, its symmetric part definite";
+    }
     // Apply W = I - gh J block by block.
     Eigen::VectorXd Wk = k;
     Wk.head(nq) -= gh * k.segment(nq, nq);

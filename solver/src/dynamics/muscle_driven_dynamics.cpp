@@ -265,11 +265,16 @@ void muscle_driven_jacobian(const MuscleDrivenSystem& sys, const Eigen::VectorXd
   jac.factored_gamma_h = -1;
   // R^T diag(.) R products go muscle by muscle over the few coordinates each one crosses (a dense
   // product was 6 % of a reproduced gait's time).
+  if (static_cast<int>(jac.spanned.size()) != nm) {
+    jac.spanned.clear();
+    for (const Muscle& mu : model.muscles) jac.spanned.push_back(spanned_coordinates(model, mu));
+  }
   jac.crossed.resize(nm);
-  for (auto& list : jac.crossed) list.clear();
-  for (int c = 0; c < nq; ++c)  // down the columns: the matrix is column-major
-    for (int m = 0; m < nm; ++m)
+  for (int m = 0; m < nm; ++m) {
+    jac.crossed[m].clear();
+    for (int c : jac.spanned[m])
       if (jac.moment_arm(m, c) != 0) jac.crossed[m].push_back(c);
+  }
   jac.damping.setZero(nq, nq);
   jac.stiffness.setZero(nq, nq);
   if (!sys.compliant_tendons && nm > 0) {

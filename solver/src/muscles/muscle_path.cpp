@@ -74,6 +74,39 @@ std::vector<int> body_depths(const Model& model) {
 
 }  // namespace
 
+std::vector<int> spanned_coordinates(const Model& model, const Muscle& muscle) {
+  const std::vector<int> depth = body_depths(model);
+  auto parent = [&](int body) { return model.joints[model.bodies[body].joint].parent_body; };
+  std::vector<int> bodies;
+  for (const PathPoint& p : muscle.path) bodies.push_back(p.body);
+  for (const PathWrap& w : muscle.wraps) bodies.push_back(model.wrap_objects[w.wrap_object].body);
+  std::vector<char> spanned(model.num_coordinates(), 0);
+  if (!bodies.empty()) {
+    // Each body's chain up to the common ancestor of all of them (length_and_gradient's walk per
+    // segment stays below it).
+    int top = bodies.front();
+    for (int b : bodies) {
+      int a = top;
+      while (a != b) {
+        if (depth[b] >= depth[a]) b = parent(b);
+        else a = parent(a);
+      }
+      top = a;
+    }
+    for (int b : bodies)
+      for (; b != top; b = parent(b))
+        for (int c : model.joints[model.bodies[b].joint].coordinates) spanned[c] = 1;
+  }
+  for (const PathPoint& p : muscle.path)
+    if (p.kind == PathPoint::Kind::kMoving)
+      for (int c : p.moving_coordinates)
+        if (c >= 0) spanned[c] = 1;
+  std::vector<int> out;
+  for (int c = 0; c < model.num_coordinates(); ++c)
+    if (spanned[c]) out.push_back(c);
+  return out;
+}
+
 void muscle_path_geometry(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                           const MotionSubspace& S, MusclePathGeometry& out) {
   const std::vector<int> depth = body_depths(model);

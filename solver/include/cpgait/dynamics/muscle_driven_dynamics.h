@@ -102,6 +102,7 @@ struct MuscleDrivenJacobian {
   Eigen::VectorXd dF_dL, dl_dL;     // compliant tendons: force and fibre velocity against path length
   Eigen::VectorXd tendon_stiffness;  // compliant: effective dF/dL over a step of factored_gamma_h (>= 0)
   std::vector<std::vector<int>> crossed;  // per muscle: the coordinates with a nonzero moment arm
+  std::vector<std::vector<int>> spanned;  // per muscle: spanned_coordinates, where crossed is looked for
   // Generalized damping and stiffness (nq x nq, symmetric, >= 0) of the forces outside the muscles.
   // Contact spheres give sum J^T C J (C: -dF/dv, symmetric part, negative eigenvalues dropped) and
   // sum k J_y^T J_y, the stiff terms of foot-ground contact (friction's slope near zero slip and the

@@ -206,6 +206,11 @@ struct MusclePathGeometry {
         moment_arm_m(m.muscles.size(), m.num_coordinates()) {}
 };
 
+// The coordinates a muscle's moment arm can be nonzero on, ascending, whatever the pose: those of the
+// joints between its path's bodies (its points' and its wrap surfaces') below their common ancestor,
+// and those its moving points follow. muscle_path_geometry writes zeros elsewhere.
+std::vector<int> spanned_coordinates(const Model& model, const Muscle& muscle);
+
 // ws and S from forward_kinematics / motion_subspace at q.
 void muscle_path_geometry(const Model& model, const double* q, const double* qd, const KinematicsWorkspace<double>& ws,
                           const MotionSubspace& S, MusclePathGeometry& out);
