@@ -528,7 +528,7 @@ let trialId;
         assert.equal(r.cells[6], run.speed_m_s.toFixed(2));
         const ph = run.contact_phases;
         assert.equal(r.cells[7], strides('right') > 0
-          ? `${ph.stance_percent.right.toFixed(0)} / ${ph.stance_percent.left.toFixed(0)}, ${ph.double_support_percent.toFixed(0)}` : '');
+          ? `${ph.stance_percent.right.toFixed(0)} / ${ph.stance_percent.left.toFixed(0)}, ${ph.double_support_percent.toFixed(0)}, ${ph.flight_percent.toFixed(0)}` : '');
       });
       // The stage's check at other integrator tolerances (its default ones), each row its figures.
       const checks = await page.locator('#gait-tolerance-check tr[data-tolerance]').evaluateAll((r) => r.map((x) => ({ tol: Number(x.dataset.tolerance), walked: x.cells[1].textContent })));

@@ -678,11 +678,12 @@ function gaitCycleCard(card, summary, cycles) {
   const strides = (r, side) => Math.max(0, ((r.heel_strikes_s || {})[side] || []).length - 1);
   const phases = (r) => {
     const p = r.contact_phases;
-    return p && strides(r, 'right') > 0 ? `${fmt(p.stance_percent.right, 0)} / ${fmt(p.stance_percent.left, 0)}, ${fmt(p.double_support_percent, 0)}` : '';
+    return p && strides(r, 'right') > 0
+      ? `${fmt(p.stance_percent.right, 0)} / ${fmt(p.stance_percent.left, 0)}, ${fmt(p.double_support_percent, 0)}, ${fmt(p.flight_percent, 0)}` : '';
   };
   const walked = (r) => (r.fell_at_s == null ? `${fmt(r.simulated_s, 1)} s, did not fall` : `fell at ${fmt(r.fell_at_s, 2)} s`);
   const table = h('table', { id: 'gait-runs' },
-    h('tr', {}, ['Speed knob', 'Walked', 'Strides R / L', 'Stride (s)', 'Cycle / knob (s)', 'Stride length (m)', 'Speed (m/s)', 'Stance R / L, double support (%)'].map((x) => h('th', {}, x))),
+    h('tr', {}, ['Speed knob', 'Walked', 'Strides R / L', 'Stride (s)', 'Cycle / knob (s)', 'Stride length (m)', 'Speed (m/s)', 'Stance R / L, double support, flight (%)'].map((x) => h('th', {}, x))),
     runs.map((r) => h('tr', { 'data-knob': r.speed_knob, class: r.fell_at_s == null ? '' : 'fell' },
       h('td', {}, `${r.speed_knob}×`), h('td', {}, walked(r)),
       h('td', {}, `${strides(r, 'right')} / ${strides(r, 'left')}`), h('td', {}, fmt(r.stride_time_s, 3)),

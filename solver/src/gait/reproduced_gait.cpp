@@ -25,23 +25,24 @@ namespace {
 
 constexpr double kContactThresholdN = 20.0;
 
-// Share of [t0, t1) each side was loaded (over kContactThresholdN) and both were, in %.
+// Share of [t0, t1) each side was loaded (over kContactThresholdN), both were and neither was, in %.
 struct ContactPhases {
   double stance_percent[2] = {0, 0};
-  double double_support_percent = 0;
+  double double_support_percent = 0, flight_percent = 0;
 };
 ContactPhases contact_phases(const std::vector<double>& time_s, const std::vector<double>& load_r, const std::vector<double>& load_l,
                              double t0, double t1) {
   ContactPhases p;
-  int n = 0, loaded[2] = {0, 0}, both = 0;
+  int n = 0, loaded[2] = {0, 0}, both = 0, neither = 0;
   for (std::size_t i = 0; i < time_s.size(); ++i) {
     if (time_s[i] < t0 - 1e-9 || time_s[i] >= t1 - 1e-9) continue;
     const bool r = load_r[i] > kContactThresholdN, l = load_l[i] > kContactThresholdN;
-    ++n, loaded[0] += r, loaded[1] += l, both += r && l;
+    ++n, loaded[0] += r, loaded[1] += l, both += r && l, neither += !r && !l;
   }
   if (n == 0) return p;
   p.stance_percent[0] = 100.0 * loaded[0] / n, p.stance_percent[1] = 100.0 * loaded[1] / n;
   p.double_support_percent = 100.0 * both / n;
+  p.flight_percent = 100.0 * neither / n;
   return p;
 }
 
@@ -663,6 +664,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   if (hs.size() >= 2) {
     const ContactPhases p = contact_phases(r.time_s, load[0], load[1], hs.front(), hs.back());
     r.stance_percent_r = p.stance_percent[0], r.stance_percent_l = p.stance_percent[1], r.double_support_percent = p.double_support_percent;
+    r.flight_percent = p.flight_percent;
   }
   r.frozen_at_s = frozen_at_s;
   // The stand: the longest stretch after the freeze with the pelvis at rest (under 0.1 m/s over the
@@ -767,8 +769,8 @@ std::string ReproducedGaitResult::BriefReport() const {
                                : ("walked " + std::to_string(distance_m) + " m").c_str());
   std::string out = buf;
   if (stride_time_s > 0) {
-    std::snprintf(buf, sizeof buf, "; stance %.0f / %.0f %% (right / left), double support %.0f %%", stance_percent_r, stance_percent_l,
-                  double_support_percent);
+    std::snprintf(buf, sizeof buf, "; stance %.0f / %.0f %% (right / left), double support %.0f %%, flight %.0f %%", stance_percent_r,
+                  stance_percent_l, double_support_percent, flight_percent);
     out += buf;
   }
   if (frozen_at_s >= 0) {
@@ -798,7 +800,9 @@ Storage reproduced_gait_contact_table(const ReproducedGaitResult& r) {
 }
 
 nlohmann::json reproduced_gait_contact_phases(const ReproducedGaitResult& r) {
-  return {{"stance_percent", {{"right", r.stance_percent_r}, {"left", r.stance_percent_l}}}, {"double_support_percent", r.double_support_percent}};
+  return {{"stance_percent", {{"right", r.stance_percent_r}, {"left", r.stance_percent_l}}},
+          {"double_support_percent", r.double_support_percent},
+          {"flight_percent", r.flight_percent}};
 }
 
 nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitResult& r) {

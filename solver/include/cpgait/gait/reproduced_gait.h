@@ -157,9 +157,10 @@ struct ReproducedGaitResult {
   std::vector<double> heel_strikes_r_s, heel_strikes_l_s;
   double stride_time_s = 0, stride_length_m = 0, speed_m_s = 0;  // means over full strides
   // Contact phases over the full right strides, % of their time: a foot is loaded while its spheres
-  // bear over 20 N, double support while both are (0 without two right heel strikes). Walking
-  // typically: stance ~60 %, double support ~20 % (subject01's force plates: 24 %).
-  double stance_percent_r = 0, stance_percent_l = 0, double_support_percent = 0;
+  // bear over 20 N, double support while both are, flight while neither is (0 without two right heel
+  // strikes). Walking typically: stance ~60 %, double support ~20 % (subject01's force plates: 24 %),
+  // no flight; running: stance under 50 %, no double support, flight.
+  double stance_percent_r = 0, stance_percent_l = 0, double_support_percent = 0, flight_percent = 0;
   double mean_residual_force_percent_bw = 0;   // |pelvis residual force| mean, % of body weight
   double mean_residual_moment_Nm = 0;
   double fell_at_s = -1;                        // < 0: did not fall
@@ -221,7 +222,7 @@ Storage reproduced_gait_motion_table(const Model& model, const ReproducedGaitRes
 Storage reproduced_gait_residual_table(const ReproducedGaitResult& r);
 Storage reproduced_gait_contact_table(const ReproducedGaitResult& r);
 nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitResult& r);
-// Its "contact_phases": {"stance_percent": {"right", "left"}, "double_support_percent"}.
+// Its "contact_phases": {"stance_percent": {"right", "left"}, "double_support_percent", "flight_percent"}.
 nlohmann::json reproduced_gait_contact_phases(const ReproducedGaitResult& r);
 
 }  // namespace cpgait
