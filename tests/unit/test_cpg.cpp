@@ -382,7 +382,8 @@ TEST(CpgFit, PatternNeuronsShapeNarrowBurstsAtAnyPhase) {
 
 // The controller's clock: the seed's pair (s 5, Tr 1, Ta 10, b 2.5, a 1.5) as the rhythm, with a
 // pattern neuron it excites. Running freely at speed 1 or 1.3, the phase read from the state
-// advances as time x speed / cycle; the pattern neuron's state does not move it.
+// advances as time x speed / cycle; the pattern neuron's state does not move it. Read from a hint
+// (the search the reproduced gait makes), it is the same to the bit, whatever the hint.
 TEST(CpgPhase, ReadFromTheRhythmNeuronsAtAnySpeed) {
   const MatsuokaNetwork pair = MatsuokaNetwork::pair(5.0, 1.0, 10.0, 2.5, 1.5, 1.5);
   CpgModel m;
@@ -426,11 +427,24 @@ TEST(CpgPhase, ReadFromTheRhythmNeuronsAtAnySpeed) {
     const MatsuokaNetwork n = network_at_speed(m);
     MatsuokaState s = m.start;
     MatsuokaScratch scratch;
+    const int S = static_cast<int>(table.states.rows());
+    int hint = -1;
     for (int k = 1; k <= 1700; ++k) {
       matsuoka_step(n, s, dt, Eigen::VectorXd(), scratch);
       const double expected = 0.3 + k * dt * speed / m.cycle_s;
-      const double error = std::remainder(cpg_phase(table, s) - expected, 1.0);
+      const double phase = cpg_phase(table, s);
+      const double error = std::remainder(phase - expected, 1.0);
       worst = std::max(worst, std::abs(error));
+      // From the hint (the last step's nearest sample), and from a hint half a cycle off or none: the
+      // same phase to the bit.
+      EXPECT_EQ(cpg_phase(table, s, hint), phase);
+      int far = (hint + S / 2) % S, none = -1, outside = S;
+      EXPECT_EQ(cpg_phase(table, s, far), phase);
+      EXPECT_EQ(cpg_phase(table, s, none), phase);
+      EXPECT_EQ(cpg_phase(table, s, outside), phase);
+      EXPECT_EQ(far, hint);
+      EXPECT_EQ(none, hint);
+      EXPECT_EQ(outside, hint);
     }
     MatsuokaState kicked = s;
     kicked.x[2] += 5.0;

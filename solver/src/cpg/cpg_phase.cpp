@@ -43,26 +43,80 @@ CpgPhaseTable cpg_phase_table(const CpgModel& m, int samples) {
   return t;
 }
 
-double cpg_phase(const CpgPhaseTable& t, const MatsuokaState& state) {
-  const int R = t.rhythm_neurons, S = static_cast<int>(t.states.rows());
+namespace {
+
+Eigen::RowVectorXd scaled_state(const CpgPhaseTable& t, const MatsuokaState& state) {
+  const int R = t.rhythm_neurons;
   Eigen::RowVectorXd s(2 * R);
   s << state.x.head(R).transpose(), state.f.head(R).transpose();
-  s = s.cwiseProduct(t.inv_range.transpose());
-  // The squared distance to every sample, summed column by column (vectorized across the samples;
-  // each sum in a row's squaredNorm order, so that the nearest is the one it always was).
-  Eigen::VectorXd d2 = Eigen::VectorXd::Zero(S);
+  return s.cwiseProduct(t.inv_range.transpose());
+}
+
+// Sample k's squared distance to s, summed over the coordinates in order (as the vectorized sums
+// over all samples add them, so both give the same value).
+double squared_distance(const CpgPhaseTable& t, const Eigen::RowVectorXd& s, Eigen::Index k) {
+  double sum = 0;
+  for (Eigen::Index j = 0; j < s.size(); ++j) {
+    const double e = t.states(k, j) - s[j];
+    sum += e * e;
+  }
+  return sum;
+}
+
+// The nearest sample (the first, where several are): the squared distance to every sample, summed
+// column by column (vectorized across the samples; each sum in squared_distance's order).
+Eigen::Index nearest_sample(const CpgPhaseTable& t, const Eigen::RowVectorXd& s) {
+  Eigen::VectorXd d2 = Eigen::VectorXd::Zero(t.states.rows());
   for (Eigen::Index j = 0; j < s.size(); ++j) d2.array() += (t.states.col(j).array() - s[j]).square();
   Eigen::Index k = 0;
   d2.minCoeff(&k);
-  // Along the segment to the nearer neighbour: the projection's fraction.
+  return k;
+}
+
+// The phase from the nearest sample k, refined along the segment to its nearer neighbour.
+double phase_near(const CpgPhaseTable& t, const Eigen::RowVectorXd& s, Eigen::Index k) {
+  const Eigen::Index S = t.states.rows();
   const Eigen::Index prev = (k + S - 1) % S, next = (k + 1) % S;
-  const bool forward = d2[next] <= d2[prev];
+  const bool forward = squared_distance(t, s, next) <= squared_distance(t, s, prev);
   const Eigen::Index a = forward ? k : prev, b = forward ? next : k;
   const Eigen::RowVectorXd seg = t.states.row(b) - t.states.row(a);
   const double len2 = seg.squaredNorm();
   const double frac = len2 > 0 ? std::clamp((s - t.states.row(a)).dot(seg) / len2, 0.0, 1.0) : 0.0;
   const double phase = t.phase_at_start + (static_cast<double>(a) + frac) / S;
   return phase - std::floor(phase);
+}
+
+}  // namespace
+
+double cpg_phase(const CpgPhaseTable& t, const MatsuokaState& state) {
+  const Eigen::RowVectorXd s = scaled_state(t, state);
+  return phase_near(t, s, nearest_sample(t, s));
+}
+
+double cpg_phase(const CpgPhaseTable& t, const MatsuokaState& state, int& nearest) {
+  const Eigen::Index S = t.states.rows(), n = t.states.cols();
+  const Eigen::RowVectorXd s = scaled_state(t, state);
+  if (nearest < 0 || nearest >= S) {
+    const Eigen::Index k = nearest_sample(t, s);
+    nearest = static_cast<int>(k);
+    return phase_near(t, s, k);
+  }
+  Eigen::Index best = nearest;
+  double best_d2 = squared_distance(t, s, best);
+  // Each partial sum is squared_distance's and adding squares never lowers it, so a sample dropped
+  // once its partial sum exceeds the best is farther than the best; the first minimum in index order
+  // is nearest_sample's.
+  for (Eigen::Index k = 0; k < S; ++k) {
+    double sum = 0;
+    Eigen::Index j = 0;
+    for (; j < n && sum <= best_d2; ++j) {
+      const double e = t.states(k, j) - s[j];
+      sum += e * e;
+    }
+    if (sum < best_d2 || (sum == best_d2 && j == n && k < best)) best_d2 = sum, best = k;
+  }
+  nearest = static_cast<int>(best);
+  return phase_near(t, s, best);
 }
 
 }  // namespace cpgait

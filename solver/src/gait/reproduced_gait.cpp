@@ -169,6 +169,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   constexpr int kPhases = 100;
   std::vector<Eigen::VectorXd> template_q, template_u, template_a;
   CpgPhaseTable phase_table;
+  int phase_nearest = -1;  // cpg_phase's hint: the last state's nearest sample
   if (o.phase_indexed_reference) {
     const int cycles = static_cast<int>(std::floor((ref_end - o.start_time_s) / cpg_in.cycle_s + 1e-9));
     if (o.start_time_s < ref.time_s.front() || cycles < 1)
@@ -436,7 +437,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     // reference's by time) passes stop_phase.
     if (o.stop_time_s >= 0 && frozen_at_s < 0 && t >= o.stop_time_s - 1e-9) {
       const double cycles = (tau0 + std::min(t, tracked_until) * o.speed - o.start_time_s) / cpg_in.cycle_s;
-      const double phase = o.phase_indexed_reference ? cpg_phase(phase_table, neurons) : cycles - std::floor(cycles);
+      const double phase = o.phase_indexed_reference ? cpg_phase(phase_table, neurons, phase_nearest) : cycles - std::floor(cycles);
       const double p = o.stop_phase;
       if (phase_before >= 0 && (phase >= phase_before ? phase_before <= p && p < phase : p >= phase_before || p < phase)) frozen_at_s = t;
       phase_before = phase;
@@ -444,7 +445,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     const bool frozen = frozen_at_s >= 0;
     const double tau = tau0 + std::min(frozen ? frozen_at_s : t, tracked_until) * o.speed;
     reference_at(tau, q_ref, u_ref, a_ref);
-    if (o.phase_indexed_reference) template_at(cpg_phase(phase_table, neurons), q_ref, u_ref, a_ref);
+    if (o.phase_indexed_reference) template_at(cpg_phase(phase_table, neurons, phase_nearest), q_ref, u_ref, a_ref);
     // Standing: the share of the way from the frozen pose to the standing one (smoothstep) and its rate.
     double stand_share = 0;
     if (frozen) {
@@ -557,7 +558,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       for (std::size_t sp = 0; sp < contacts.spheres.size(); ++sp)
         if (sphere_side[sp] >= 0) side_load[sphere_side[sp]] += ws.contact_force_N[sp].y();
       const int side = resetting.touchdown(t, side_load[0] > kContactThresholdN, side_load[1] > kContactThresholdN, cycle_now_s);
-      if (side >= 0) resetting.reset(side, cpg_phase(phase_table, neurons));
+      if (side >= 0) resetting.reset(side, cpg_phase(phase_table, neurons, phase_nearest));
       rate = resetting.rate(dt, cycle_now_s);
     }
     if (!frozen) matsuoka_step(network, neurons, rate * dt, u_in, scratch);  // frozen: it stops

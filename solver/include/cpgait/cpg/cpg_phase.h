@@ -27,5 +27,10 @@ CpgPhaseTable cpg_phase_table(const CpgModel& model, int samples = 400);
 // state's, refined along the segment to its nearer neighbour. The speed knob changes how fast the
 // states go round, not which they are, so one table serves every speed.
 double cpg_phase(const CpgPhaseTable& table, const MatsuokaState& state);
+// The same phase to the bit, found from a hint: `nearest` holds the nearest sample of a state near
+// this one (the last call's; -1: none) and receives this one's. The state's distance to the hint
+// bounds the search: each other sample's sum of squares stops once it passes the best so far
+// (partial distance search), which for most samples is after a term or two.
+double cpg_phase(const CpgPhaseTable& table, const MatsuokaState& state, int& nearest);
 
 }  // namespace cpgait
