@@ -36,7 +36,15 @@ inline httplib::MultipartFormDataItems trial_form(const std::string& trc, const 
   return {{"markers", trc, trc_name, "text/plain"}, {"options", options.dump(), "options.json", "application/json"}};
 }
 
-inline json body(const httplib::Result& r) { return json::parse(r->body); }
+// A request that got no answer (refused, timed out) fails the test with httplib's reason and gives an
+// empty object, where dereferencing it crashed the test's process (seen once in CI on a loaded machine).
+inline json body(const httplib::Result& r) {
+  if (!r) {
+    ADD_FAILURE() << "no answer from the server: " << httplib::to_string(r.error());
+    return json::object();
+  }
+  return json::parse(r->body);
+}
 
 // The built-in walker, its gait held by residuals untuned: the long trials that keep workers busy run
 // as before 2026-11-29 (the gait stage's default tunes a controller for minutes).

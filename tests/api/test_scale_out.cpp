@@ -269,6 +269,7 @@ TEST(ScaleOut, CancelAndDeleteReachATrialRunningInAnotherProcess) {
   ServerProcess api(data, {"--workers", "0"}, pg.url());
   WorkerProcess worker(data, pg.url(), {"--name", "far", "--heartbeat", "0.2"});
   httplib::Client c("127.0.0.1", api.port());
+  c.set_read_timeout(60, 0);  // uploads of a ten-minute trial on a loaded machine: more than httplib's 5 s
   // Ten minutes of walking, so that the cancel and the delete reach the trial midway: a minute of it
   // now runs in well under a second, and in CI its worker once finished it before its heartbeat saw
   // the delete (abandoned at publishing, no lease_lost).
@@ -277,7 +278,7 @@ TEST(ScaleOut, CancelAndDeleteReachATrialRunningInAnotherProcess) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
     while (std::chrono::steady_clock::now() < until) {
       const json t = body(c.Get(("/api/v1/trials/" + id).c_str()));
-      if (t["status"] == "running" && t.value("worker", "") == "far") return true;
+      if (t.value("status", "") == "running" && t.value("worker", "") == "far") return true;
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     return false;
@@ -285,15 +286,21 @@ TEST(ScaleOut, CancelAndDeleteReachATrialRunningInAnotherProcess) {
   const std::string a = body(c.Post("/api/v1/trials", trial_form(trc, "a.trc", walker_with_residual_gait())))["id"];
   ASSERT_TRUE(running_on_worker(a));
   const auto asked = std::chrono::steady_clock::now();
-  EXPECT_EQ(c.Post(("/api/v1/trials/" + a + "/cancel").c_str())->status, 202);
+  const auto cancel = c.Post(("/api/v1/trials/" + a + "/cancel").c_str());
+  ASSERT_TRUE(cancel) << httplib::to_string(cancel.error());
+  EXPECT_EQ(cancel->status, 202);
   EXPECT_EQ(wait_finished(c, a, 30), "cancelled");
   const double cancel_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - asked).count();
   EXPECT_LT(cancel_s, 10.0) << "the worker did not see the cancel at its heartbeat";
 
   const std::string b = body(c.Post("/api/v1/trials", trial_form(trc, "b.trc", walker_with_residual_gait())))["id"];
   ASSERT_TRUE(running_on_worker(b));
-  EXPECT_EQ(c.Delete(("/api/v1/trials/" + b).c_str())->status, 204);
-  EXPECT_EQ(c.Get(("/api/v1/trials/" + b).c_str())->status, 404);
+  const auto deleted = c.Delete(("/api/v1/trials/" + b).c_str());
+  ASSERT_TRUE(deleted) << httplib::to_string(deleted.error());
+  EXPECT_EQ(deleted->status, 204);
+  const auto gone = c.Get(("/api/v1/trials/" + b).c_str());
+  ASSERT_TRUE(gone) << httplib::to_string(gone.error());
+  EXPECT_EQ(gone->status, 404);
   // The worker drops the trial at its next heartbeat and leaves no folder behind.
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (worker.log().find("\"abandoned\"") == std::string::npos && std::chrono::steady_clock::now() < until)
@@ -307,7 +314,9 @@ TEST(ScaleOut, CancelAndDeleteReachATrialRunningInAnotherProcess) {
     if (e.is_object() && e.value("trial", "") == b && e.value("state", "") == "abandoned") ran_s = e.value("seconds", -1.0);
   }
   EXPECT_GE(ran_s, 0.0) << "no abandoned run of " << b << ": " << worker.log();
-  if (ran_s >= 0.4) EXPECT_NE(worker.log().find("\"lease_lost\""), std::string::npos) << worker.log();
+  if (ran_s >= 0.4) {
+    EXPECT_NE(worker.log().find("\"lease_lost\""), std::string::npos) << worker.log();
+  }
   EXPECT_FALSE(fs::exists(data + "/trials/" + b));
   std::printf("[ info ] cancel reached the worker's trial in %.2f s (heartbeat 0.2 s); the deleted one ran %.2f s\n", cancel_s, ran_s);
   fs::remove_all(dir);
