@@ -10,6 +10,7 @@
 #include "cpgait/gait/standing_balance.h"
 #include "cpgait/gait/standing_pose.h"
 #include "cpgait/gait/tune_gait_controller.h"
+#include "cpgait/gait/walk_measures.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/capture/input_error.h"
@@ -506,6 +507,62 @@ TEST(ReproducedGait, DriftIsTheTurnOfTheWalksDirectionAndYawFromItsMiddleToItsEn
   EXPECT_EQ(walk_drift_rad(t, walk(1, 0, 0.12, 0.05), yaw, tx, -1, belt, 1.0), 0.0);
   // Without a yaw coordinate, the direction alone.
   EXPECT_NEAR(walk_drift_rad(t, walk(1, 0, -0.12, 0.05), -1, tx, tz, belt, 1.0), std::atan(0.1), 1e-12);
+}
+
+// Heel strikes on a made-up load (10 ms samples, threshold 20 N): a landing rises through the threshold
+// at the interpolated time and counts only if the load holds for hold_s (or to the record's end), at
+// least min_gap_s after the last one counted. Landings at 0.2, 1.0 (40 ms: a brushing toe), 1.4, 1.8
+// and 2.9 s (90 ms, to the end).
+TEST(WalkMeasures, HeelStrikesAreLandingsThatHoldTheirLoad) {
+  std::vector<double> t, load;
+  for (int i = 0; i <= 300; ++i) t.push_back(0.01 * i);
+  for (double ti : t) {
+    const bool landed = (ti >= 0.205 && ti < 0.9) || (ti >= 1.005 && ti < 1.035) || (ti >= 1.405 && ti < 1.7) || (ti >= 1.805 && ti < 2.3) ||
+                        ti >= 2.905;
+    load.push_back(landed ? 700.0 : 0.0);
+  }
+  // 0 -> 700 N between 0.20 and 0.21 s crosses 20 N at 0.20 + 20/700 * 0.01 s.
+  const double after = 20.0 / 700.0 * 0.01;
+  const std::vector<double> strikes = rising_through(t, load, 20.0, 0.5, 0.2);
+  ASSERT_EQ(strikes.size(), 3u);
+  EXPECT_NEAR(strikes[0], 0.20 + after, 1e-12);
+  EXPECT_NEAR(strikes[1], 1.40 + after, 1e-12);  // not the brushing toe, not 1.8 (0.4 s after 1.4)
+  EXPECT_NEAR(strikes[2], 2.90 + after, 1e-12);  // held to the record's end
+  // A 20 ms hold takes the toe's touch too, a 0.3 s gap the landing at 1.8 s.
+  const std::vector<double> all = rising_through(t, load, 20.0, 0.3, 0.02);
+  ASSERT_EQ(all.size(), 5u);
+  EXPECT_NEAR(all[1], 1.00 + after, 1e-12);
+  EXPECT_NEAR(all[3], 1.80 + after, 1e-12);
+}
+
+// Contact phases over [0.5, 1.5) s of made-up loads: the right foot down 0-1 s, the left from 0.8 s
+// to 1.2 s: right stance 50 %, left 40 %, both 20 %, neither (flight) 30 %.
+TEST(WalkMeasures, ContactPhasesShareTheStrideOutBySide) {
+  std::vector<double> t, right, left;
+  for (int i = 0; i < 200; ++i) {
+    t.push_back(0.01 * i);
+    right.push_back(t.back() < 1.0 - 1e-9 ? 500.0 : 0.0);
+    left.push_back(t.back() >= 0.8 - 1e-9 && t.back() < 1.2 - 1e-9 ? 500.0 : 10.0);  // 10 N: under the threshold
+  }
+  const ContactPhases p = contact_phases(t, right, left, 0.5, 1.5);
+  EXPECT_NEAR(p.stance_percent[0], 50.0, 1e-9);
+  EXPECT_NEAR(p.stance_percent[1], 40.0, 1e-9);
+  EXPECT_NEAR(p.double_support_percent, 20.0, 1e-9);
+  EXPECT_NEAR(p.flight_percent, 30.0, 1e-9);
+  const ContactPhases none = contact_phases(t, right, left, 5.0, 6.0);  // no samples: all 0
+  EXPECT_EQ(none.stance_percent[0] + none.double_support_percent + none.flight_percent, 0.0);
+}
+
+// The support polygon: a foot's four corners in any order; inside, on an edge, outside; three points
+// in a line and two points have no inside.
+TEST(WalkMeasures, ConvexHullHoldsWhatLiesInsideOrOnItsEdge) {
+  const std::vector<Eigen::Vector2d> foot = {{0.2, 0.1}, {0.0, 0.0}, {0.2, 0.0}, {0.0, 0.1}, {0.1, 0.05}};
+  EXPECT_TRUE(inside_convex_hull(foot, {0.1, 0.02}));
+  EXPECT_TRUE(inside_convex_hull(foot, {0.2, 0.05}));
+  EXPECT_FALSE(inside_convex_hull(foot, {0.21, 0.05}));
+  EXPECT_FALSE(inside_convex_hull(foot, {0.1, -0.001}));
+  EXPECT_FALSE(inside_convex_hull({{0, 0}, {0.1, 0}, {0.2, 0}}, {0.1, 0}));
+  EXPECT_FALSE(inside_convex_hull({{0, 0}, {0.1, 0.1}}, {0.05, 0.05}));
 }
 
 // A walk that stopped reports no drift (its belt slowed: it has no direction to keep). The still

@@ -15,6 +15,7 @@
 #include "cpgait/dynamics/muscle_driven_dynamics.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/gait/standing_pose.h"
+#include "cpgait/gait/walk_measures.h"
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/muscles/activation_dynamics.h"
 #include "cpgait/muscles/muscle_model.h"
@@ -23,67 +24,104 @@ namespace cpgait {
 
 namespace {
 
-constexpr double kContactThresholdN = 20.0;
+// The trial's cycle averaged at kPhases phases from the heel strike: the reflex's targets at the
+// CPG's phase (issue 22), so that the speed knob and the stop change them too.
+struct PhaseTemplate {
+  static constexpr int kPhases = 100;
+  std::vector<Eigen::VectorXd> q, u, a;  // per phase sample; rates in the trial's time
 
-// Share of [t0, t1) each side was loaded (over kContactThresholdN), both were and neither was, in %.
-struct ContactPhases {
-  double stance_percent[2] = {0, 0};
-  double double_support_percent = 0, flight_percent = 0;
-};
-ContactPhases contact_phases(const std::vector<double>& time_s, const std::vector<double>& load_r, const std::vector<double>& load_l,
-                             double t0, double t1) {
-  ContactPhases p;
-  int n = 0, loaded[2] = {0, 0}, both = 0, neither = 0;
-  for (std::size_t i = 0; i < time_s.size(); ++i) {
-    if (time_s[i] < t0 - 1e-9 || time_s[i] >= t1 - 1e-9) continue;
-    const bool r = load_r[i] > kContactThresholdN, l = load_l[i] > kContactThresholdN;
-    ++n, loaded[0] += r, loaded[1] += l, both += r && l, neither += !r && !l;
-  }
-  if (n == 0) return p;
-  p.stance_percent[0] = 100.0 * loaded[0] / n, p.stance_percent[1] = 100.0 * loaded[1] / n;
-  p.double_support_percent = 100.0 * both / n;
-  p.flight_percent = 100.0 * neither / n;
-  return p;
-}
-
-// Times a signal rises through a threshold (linear interpolation between samples) and stays above it
-// for hold_s: a foot's landing, not a toe brushing the ground.
-std::vector<double> rising_through(const std::vector<double>& t, const std::vector<double>& v, double threshold, double min_gap_s,
-                                   double hold_s) {
-  std::vector<double> out;
-  for (std::size_t i = 1; i < v.size(); ++i)
-    if (v[i - 1] < threshold && v[i] >= threshold) {
-      const double tc = t[i - 1] + (threshold - v[i - 1]) / (v[i] - v[i - 1]) * (t[i] - t[i - 1]);
-      std::size_t j = i;
-      while (j < v.size() && v[j] >= threshold && t[j] - tc < hold_s) ++j;
-      const bool held = j == v.size() || v[j] >= threshold;
-      if (held && (out.empty() || tc - out.back() >= min_gap_s)) out.push_back(tc);
+  // The template at a phase (linear between samples, round the cycle), rates in simulated time at
+  // speed knob `speed`; the coordinates marked in `keep` (the root's translations) keep the
+  // time-indexed reference's values already in q_ref, u_ref, a_ref.
+  void at(double phase, double speed, const std::vector<char>& keep, Eigen::VectorXd& q_ref, Eigen::VectorXd& u_ref,
+          Eigen::VectorXd& a_ref) const {
+    const double pos = phase * kPhases;
+    const int i = static_cast<int>(std::floor(pos)) % kPhases, j = (i + 1) % kPhases;
+    const double w = pos - std::floor(pos);
+    for (Eigen::Index c = 0; c < q_ref.size(); ++c) {
+      if (keep[static_cast<std::size_t>(c)]) continue;
+      // An angle that wraps between samples would interpolate through the long way; gait's do not.
+      q_ref[c] = (1 - w) * q[i][c] + w * q[j][c];
+      u_ref[c] = speed * ((1 - w) * u[i][c] + w * u[j][c]);
+      a_ref[c] = speed * speed * ((1 - w) * a[i][c] + w * a[j][c]);
     }
-  return out;
+  }
+};
+
+// The mean of `cycles` cycles of ref from start_s, each cycle_s long.
+PhaseTemplate phase_template(const CoordinateTrajectories& ref, double start_s, double cycle_s, int cycles) {
+  const Eigen::Index nq = ref.q.cols();
+  PhaseTemplate t;
+  Eigen::VectorXd q(nq), u(nq), a(nq);
+  for (int j = 0; j < PhaseTemplate::kPhases; ++j) {
+    t.q.push_back(Eigen::VectorXd::Zero(nq));
+    t.u.push_back(Eigen::VectorXd::Zero(nq));
+    t.a.push_back(Eigen::VectorXd::Zero(nq));
+    for (int k = 0; k < cycles; ++k) {
+      trajectories_at(ref, start_s + (k + static_cast<double>(j) / PhaseTemplate::kPhases) * cycle_s, q, u, a);
+      t.q.back() += q / cycles, t.u.back() += u / cycles, t.a.back() += a / cycles;
+    }
+  }
+  return t;
 }
 
-// Whether point p lies inside the convex hull of pts (2-D; Andrew's monotone chain).
-bool inside_convex_hull(std::vector<Eigen::Vector2d> pts, const Eigen::Vector2d& p) {
-  if (pts.size() < 3) return false;
-  std::sort(pts.begin(), pts.end(), [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
-  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-  };
-  std::vector<Eigen::Vector2d> hull(2 * pts.size());
-  std::size_t k = 0;
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    while (k >= 2 && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0) --k;
-    hull[k++] = pts[i];
+struct PassiveJoint {
+  int c;
+  double stiffness, damping, rest;
+};
+
+// The passive joints, the root's aside: those the options name (their spring-damper towards the
+// default value), and those no muscle crosses (moment_arm_m at the start), which nothing else would
+// hold: as a locked joint would, a critically damped 5 Hz spring-damper (from the mass matrix'
+// diagonal M) towards the trial's mean. Without it gait10dof18musc's unmuscled lumbar joint swung the
+// torso 164 deg RMS off the trial; with the toes' 300 N m/rad and 0.5 N m s/rad 30 deg - measured.
+std::vector<PassiveJoint> passive_joints(const Model& model, const ReproducedGaitOptions& o, const std::vector<int>& root,
+                                         const Eigen::MatrixXd& moment_arm_m, const Eigen::MatrixXd& M, const CoordinateTrajectories& ref) {
+  std::vector<PassiveJoint> passive;
+  const int nm = static_cast<int>(model.muscles.size());
+  for (int c = 0; c < model.num_coordinates(); ++c) {
+    if (std::find(root.begin(), root.end(), c) != root.end() || model.coordinates[c].locked ||
+        std::any_of(model.couplers.begin(), model.couplers.end(), [c](const CoordinateCoupler& k) { return k.dependent == c; }))
+      continue;
+    if (!o.passive_coordinate_prefix.empty() && model.coordinates[c].name.rfind(o.passive_coordinate_prefix, 0) == 0) {
+      passive.push_back({c, o.passive_stiffness_Nm_per_rad, o.passive_damping_Nms_per_rad, model.coordinates[c].default_value});
+    } else if (nm > 0 && moment_arm_m.col(c).cwiseAbs().maxCoeff() == 0.0) {
+      const double w = 2 * M_PI * 5.0, inertia = M(c, c);
+      passive.push_back({c, w * w * inertia, 2 * w * inertia, ref.q.col(c).mean()});
+    }
   }
-  for (std::size_t i = pts.size() - 1, t = k + 1; i-- > 0;) {
-    while (k >= t && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0) --k;
-    hull[k++] = pts[i];
+  return passive;
+}
+
+// The pelvis residuals at state x (positions, then speeds) into tau_root's root entries, given the
+// accelerations xdot without them and M^-1's root columns. Translations: springs and dampers towards
+// the reference, scaled by body mass, without feedforward, so weight and propulsion reach the body
+// through the legs and the ground and the springs take only what the ground does not. Rotations:
+// computed torque (the reference's accelerations plus PD), given the translational forces, so the
+// trunk stays upright.
+void pelvis_residuals(const Model& model, const std::vector<int>& root, const ReproducedGaitOptions& o, const Eigen::MatrixXd& Minv_root,
+                      const Eigen::VectorXd& q_ref, const Eigen::VectorXd& u_ref, const Eigen::VectorXd& a_ref, const Eigen::VectorXd& x,
+                      const Eigen::VectorXd& xdot, Eigen::VectorXd& tau_root) {
+  const int nq = model.num_coordinates(), nr = static_cast<int>(root.size());
+  const double body_mass_kg = model.total_mass_kg();
+  std::vector<int> rotations;
+  for (int i = 0; i < nr; ++i) {
+    const int c = root[i];
+    if (model.coordinates[c].is_angle()) rotations.push_back(i);
+    else tau_root[c] = body_mass_kg * (o.pelvis_translation_kp * (q_ref[c] - x[c]) + o.pelvis_translation_kv * (u_ref[c] - x[nq + c]));
   }
-  hull.resize(k - 1);
-  if (hull.size() < 3) return false;
-  for (std::size_t i = 0; i < hull.size(); ++i)
-    if (cross(hull[i], hull[(i + 1) % hull.size()], p) < 0) return false;
-  return true;
+  const int nrot = static_cast<int>(rotations.size());
+  if (nrot == 0) return;
+  const Eigen::VectorXd qdd_translations = Minv_root * Eigen::VectorXd(tau_root(root));  // rotations still 0
+  Eigen::MatrixXd B(nrot, nrot);
+  Eigen::VectorXd want(nrot);
+  for (int a = 0; a < nrot; ++a) {
+    const int c = root[rotations[a]];
+    want[a] = a_ref[c] + o.pelvis_kv * (u_ref[c] - x[nq + c]) + o.pelvis_kp * (q_ref[c] - x[c]) - xdot[nq + c] - qdd_translations[c];
+    for (int b2 = 0; b2 < nrot; ++b2) B(a, b2) = Minv_root(c, rotations[b2]);
+  }
+  const Eigen::VectorXd tr = B.partialPivLu().solve(want);
+  for (int a = 0; a < nrot; ++a) tau_root[root[rotations[a]]] = tr[a];
 }
 
 }  // namespace
@@ -165,25 +203,15 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       pelvis_body = j.child_body;
       break;
     }
-  // The phase-indexed reference: the cycles after the heel strike averaged at 100 phases.
-  constexpr int kPhases = 100;
-  std::vector<Eigen::VectorXd> template_q, template_u, template_a;
+  // The phase-indexed reference: the cycles after the heel strike averaged.
+  PhaseTemplate phase_reference;
   CpgPhaseTable phase_table;
   int phase_nearest = -1;  // cpg_phase's hint: the last state's nearest sample
   if (o.phase_indexed_reference) {
     const int cycles = static_cast<int>(std::floor((ref_end - o.start_time_s) / cpg_in.cycle_s + 1e-9));
     if (o.start_time_s < ref.time_s.front() || cycles < 1)
       throw InputError(reference.name, 0, "start_time", "a phase-indexed reference needs a full gait cycle of the reference after the heel strike");
-    Eigen::VectorXd q(nq), u(nq), a(nq);
-    for (int j = 0; j < kPhases; ++j) {
-      template_q.push_back(Eigen::VectorXd::Zero(nq));
-      template_u.push_back(Eigen::VectorXd::Zero(nq));
-      template_a.push_back(Eigen::VectorXd::Zero(nq));
-      for (int k = 0; k < cycles; ++k) {
-        trajectories_at(ref, o.start_time_s + (k + static_cast<double>(j) / kPhases) * cpg_in.cycle_s, q, u, a);
-        template_q.back() += q / cycles, template_u.back() += u / cycles, template_a.back() += a / cycles;
-      }
-    }
+    phase_reference = phase_template(ref, o.start_time_s, cpg_in.cycle_s, cycles);
   }
   if (o.phase_indexed_reference || o.entrainment.share > 0) phase_table = cpg_phase_table(cpg_in);
   // Walk -> stand: the belt's share of its speed once the walk froze (frozen_at_s, < 0: walking),
@@ -195,22 +223,9 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     const double s = std::min(1.0, (t - frozen_at_s) / stop_over_s);
     return 1.0 - s * s * (3 - 2 * s);
   };
-  // The template at a phase (linear between samples, round the cycle), rates in simulated time; the
-  // pelvis translations keep the time-indexed reference's.
+  // The pelvis translations keep the time-indexed reference's (under the template and the stand).
   std::vector<char> root_translation(static_cast<std::size_t>(nq), 0);
   for (int c : root) root_translation[static_cast<std::size_t>(c)] = !model.coordinates[c].is_angle();
-  auto template_at = [&](double phase, Eigen::VectorXd& q, Eigen::VectorXd& u, Eigen::VectorXd& a) {
-    const double pos = phase * kPhases;
-    const int i = static_cast<int>(std::floor(pos)) % kPhases, j = (i + 1) % kPhases;
-    const double w = pos - std::floor(pos);
-    for (int c = 0; c < nq; ++c) {
-      if (root_translation[static_cast<std::size_t>(c)]) continue;
-      // An angle that wraps between samples would interpolate through the long way; gait's do not.
-      q[c] = (1 - w) * template_q[i][c] + w * template_q[j][c];
-      u[c] = o.speed * ((1 - w) * template_u[i][c] + w * template_u[j][c]);
-      a[c] = o.speed * o.speed * ((1 - w) * template_a[i][c] + w * template_a[j][c]);
-    }
-  };
   for (int c : root) r.residual_names.push_back(model.coordinates[c].name + (model.coordinates[c].is_angle() ? "_moment" : "_force"));
 
   MuscleDrivenSystem sys;
@@ -261,27 +276,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
                                                                          : -1;
   const double start_height = height_coordinate >= 0 ? x[height_coordinate] : 0.0;
 
-  // The passive joints, the root's aside: those the options name (their spring-damper towards the
-  // default value), and those no muscle crosses (moment arms at the start), which nothing else would
-  // hold: as a locked joint would, a critically damped 5 Hz spring-damper (from the mass matrix'
-  // diagonal) towards the trial's mean. Without it gait10dof18musc's unmuscled lumbar joint swung the
-  // torso 164 deg RMS off the trial; with the toes' 300 N m/rad and 0.5 N m s/rad 30 deg - measured.
-  struct PassiveJoint {
-    int c;
-    double stiffness, damping, rest;
-  };
-  std::vector<PassiveJoint> passive;
-  for (int c = 0; c < nq; ++c) {
-    if (std::find(root.begin(), root.end(), c) != root.end() || model.coordinates[c].locked ||
-        std::any_of(model.couplers.begin(), model.couplers.end(), [c](const CoordinateCoupler& k) { return k.dependent == c; }))
-      continue;
-    if (!o.passive_coordinate_prefix.empty() && model.coordinates[c].name.rfind(o.passive_coordinate_prefix, 0) == 0) {
-      passive.push_back({c, o.passive_stiffness_Nm_per_rad, o.passive_damping_Nms_per_rad, model.coordinates[c].default_value});
-    } else if (nm > 0 && ws.geometry.moment_arm_m.col(c).cwiseAbs().maxCoeff() == 0.0) {
-      const double w = 2 * M_PI * 5.0, inertia = ws.fd.M(c, c);
-      passive.push_back({c, w * w * inertia, 2 * w * inertia, ref.q.col(c).mean()});
-    }
-  }
+  const std::vector<PassiveJoint> passive = passive_joints(model, o, root, ws.geometry.moment_arm_m, ws.fd.M, ref);
   // The push, as generalized forces at the interval's start.
   Eigen::VectorXd tau_push = Eigen::VectorXd::Zero(nq);
   KinematicsWorkspace<double> push_kin(model);
@@ -384,7 +379,6 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
   }
 
   const double dt = o.control_interval_s;
-  const double body_mass_kg = model.total_mass_kg();
   const int steps = static_cast<int>(std::lround(o.duration_s / dt));
   std::vector<Eigen::VectorXd> rec_q, rec_ref, rec_res, rec_exc, rec_contact;
   std::vector<double> rec_pelvis_speed;
@@ -445,7 +439,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     const bool frozen = frozen_at_s >= 0;
     const double tau = tau0 + std::min(frozen ? frozen_at_s : t, tracked_until) * o.speed;
     reference_at(tau, q_ref, u_ref, a_ref);
-    if (o.phase_indexed_reference) template_at(cpg_phase(phase_table, neurons, phase_nearest), q_ref, u_ref, a_ref);
+    if (o.phase_indexed_reference) phase_reference.at(cpg_phase(phase_table, neurons, phase_nearest), o.speed, root_translation, q_ref, u_ref, a_ref);
     // Standing: the share of the way from the frozen pose to the standing one (smoothstep) and its rate.
     double stand_share = 0;
     if (frozen) {
@@ -478,34 +472,8 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
       contact_row.segment<3>(3 * s) = ws.contact_force_N[s];
     }
-    // Pelvis residuals. Translations: springs and dampers towards the reference, scaled by body mass,
-    // without feedforward, so weight and propulsion reach the body through the legs and the ground
-    // and the springs take only what the ground does not. Rotations: computed torque (the reference's
-    // accelerations plus PD), given the translational forces, so the trunk stays upright.
-    if (o.pelvis_residuals && !root.empty()) {
-      // Only M^-1's root columns are needed: qdd = qdd0 + M^-1 E tau_root.
-      const int nr = static_cast<int>(root.size());
-      const Eigen::MatrixXd Minv_root = ws.fd.llt.solve(root_columns);
-      std::vector<int> rotations;
-      for (int i = 0; i < nr; ++i) {
-        const int c = root[i];
-        if (model.coordinates[c].is_angle()) rotations.push_back(i);
-        else tau_root[c] = body_mass_kg * (o.pelvis_translation_kp * (q_ref[c] - x[c]) + o.pelvis_translation_kv * (u_ref[c] - x[nq + c]));
-      }
-      const int nrot = static_cast<int>(rotations.size());
-      if (nrot > 0) {
-        const Eigen::VectorXd qdd_translations = Minv_root * Eigen::VectorXd(tau_root(root));  // rotations still 0
-        Eigen::MatrixXd B(nrot, nrot);
-        Eigen::VectorXd want(nrot);
-        for (int a = 0; a < nrot; ++a) {
-          const int c = root[rotations[a]];
-          want[a] = a_ref[c] + o.pelvis_kv * (u_ref[c] - x[nq + c]) + o.pelvis_kp * (q_ref[c] - x[c]) - xdot[nq + c] - qdd_translations[c];
-          for (int b2 = 0; b2 < nrot; ++b2) B(a, b2) = Minv_root(c, rotations[b2]);
-        }
-        const Eigen::VectorXd tr = B.partialPivLu().solve(want);
-        for (int a = 0; a < nrot; ++a) tau_root[root[rotations[a]]] = tr[a];
-      }
-    }
+    if (o.pelvis_residuals && !root.empty())  // only M^-1's root columns are needed: qdd = qdd0 + M^-1 E tau_root
+      pelvis_residuals(model, root, o, ws.fd.llt.solve(root_columns), q_ref, u_ref, a_ref, x, xdot, tau_root);
     // Record.
     r.time_s.push_back(t);
     rec_q.push_back(x.head(nq));
@@ -522,18 +490,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       Eigen::Vector3d v = Eigen::Vector3d::Zero();
       for (int c : root) v += point_velocity_column(ws.fd.S, c, p) * x[nq + c];
       rec_pelvis_speed.push_back(std::hypot(v.x(), v.z()));
-      const Eigen::Vector3d com = centre_of_mass_m(model, kin);
-      std::vector<Eigen::Vector2d> support;
-      for (std::size_t sp = 0; sp < contacts.spheres.size(); ++sp)
-        if (ws.contact_force_N[sp].y() > kContactThresholdN) support.emplace_back(ws.contact_point_m[sp].x(), ws.contact_point_m[sp].z());
-      bool over = false;
-      if (planar) {
-        for (const auto& a : support)
-          for (const auto& b : support) over = over || (a.x() <= com.x() && com.x() <= b.x());
-      } else {
-        over = inside_convex_hull(support, Eigen::Vector2d(com.x(), com.z()));
-      }
-      rec_com_supported.push_back(over);
+      rec_com_supported.push_back(centre_of_mass_supported(model, kin, ws.contact_force_N, ws.contact_point_m, planar));
     }
     if (r.fell_at_s < 0 && height_coordinate >= 0 && x[height_coordinate] < o.fall_height_fraction * start_height) {
       r.fell_at_s = t;
@@ -548,7 +505,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
         double fy = 0;
         for (std::size_t s = 0; s < contacts.spheres.size(); ++s)
           if (contacts.spheres[s].body == signals[i].body) fy += ws.contact_force_N[s].y();
-        sig[i] = fy > kContactThresholdN ? 1.0 : 0.0;
+        sig[i] = fy > kFootContactThresholdN ? 1.0 : 0.0;
       }
     }
     u_in = signals.empty() ? Eigen::VectorXd::Zero(network.size()) : Eigen::VectorXd(cpg.feedback_gains * sig);
@@ -557,7 +514,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
       double side_load[2] = {0, 0};
       for (std::size_t sp = 0; sp < contacts.spheres.size(); ++sp)
         if (sphere_side[sp] >= 0) side_load[sphere_side[sp]] += ws.contact_force_N[sp].y();
-      const int side = resetting.touchdown(t, side_load[0] > kContactThresholdN, side_load[1] > kContactThresholdN, cycle_now_s);
+      const int side = resetting.touchdown(t, side_load[0] > kFootContactThresholdN, side_load[1] > kFootContactThresholdN, cycle_now_s);
       if (side >= 0) resetting.reset(side, cpg_phase(phase_table, neurons, phase_nearest));
       rate = resetting.rate(dt, cycle_now_s);
     }
@@ -576,7 +533,7 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
         SimbiconGains gains = o.balance;
         gains.trunk_kp *= 1 - stand_share, gains.trunk_kv *= 1 - stand_share;
         simbicon_balance_feedback(contacts, legs, gains, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), reference_kin, e_pelvis,
-                                  ed_pelvis, moving_share(t) * pelvis_velocity_ref, ws.contact_force_N, kContactThresholdN, e, ed);
+                                  ed_pelvis, moving_share(t) * pelvis_velocity_ref, ws.contact_force_N, kFootContactThresholdN, e, ed);
       }
       if (frozen) standing_balance_feedback(model, contacts, stand_legs, stand_joints, o.standing, ws.fd.kinematics, ws.fd.S, x.segment(nq, nq), 1.0, e);
       for (int c : root) e[c] = ed[c] = 0;
@@ -612,114 +569,16 @@ ReproducedGaitResult reproduce_gait(const Model& model, const CpgModel& cpg_in, 
     r.excitations.row(i) = rec_exc[i].transpose();
     r.contact_force_N.row(i) = rec_contact[i].transpose();
   }
-  // RMS against the reference up to `until` s (and the reference's end).
-  auto tracking_rms_until = [&](double until) {
-    Eigen::VectorXd rms = Eigen::VectorXd::Zero(nq);
-    int n = 0;
-    for (int i = 0; i < ns; ++i)
-      if (r.time_s[i] <= std::min(until, tracked_until) + 1e-9) rms += (r.q.row(i) - r.q_reference.row(i)).transpose().cwiseAbs2(), ++n;
-    return Eigen::VectorXd((rms / std::max(1, n)).cwiseSqrt());
-  };
-  r.tracking_rms = tracking_rms_until(tracked_until);
-  r.tracking_rms_first_two_cycles = tracking_rms_until(2 * cpg_in.cycle_s / (cpg_in.speed * o.speed));
-  for (int c = 0; c < nq; ++c)
-    if (model.coordinates[c].is_angle() && r.tracking_rms[c] > r.worst_rotation_rms_rad) {
-      r.worst_rotation_rms_rad = r.tracking_rms[c];
-      r.worst_rotation = model.coordinates[c].name;
-    }
-  // Heel strikes: a foot's spheres pressing through the threshold and bearing load for a fifth of a
-  // cycle, at least 0.4 s apart. Without the hold, toes touching down for 40-80 ms just after toe-off
-  // counted as strikes and halved subject01's stride - measured.
-  std::vector<double> load[2];
-  for (int i = 0; i < ns; ++i) {
-    double side_load[2] = {0, 0};
-    for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
-      const int side = sphere_side[s];
-      if (side >= 0) side_load[side] += r.contact_force_N(i, 3 * s + 1);
-    }
-    load[0].push_back(side_load[0]);
-    load[1].push_back(side_load[1]);
-  }
-  const double stance_hold_s = 0.2 * cpg_in.cycle_s / (cpg_in.speed * o.speed);
-  r.heel_strikes_r_s = rising_through(r.time_s, load[0], kContactThresholdN, 0.4, stance_hold_s);
-  r.heel_strikes_l_s = rising_through(r.time_s, load[1], kContactThresholdN, 0.4, stance_hold_s);
-  // Strides of the right foot (the CPG's cycle): time, and the pelvis' horizontal travel.
-  const int tx = model.coordinate_index("pelvis_tx"), tz = model.coordinate_index("pelvis_tz");
-  auto pelvis_xz = [&](double t) {
-    const int i = std::clamp(static_cast<int>(std::lround(t / dt)), 0, ns - 1);
-    return Eigen::Vector2d(tx >= 0 ? r.q(i, tx) : 0.0, tz >= 0 ? r.q(i, tz) : 0.0);
-  };
-  const auto& hs = r.heel_strikes_r_s;
-  // On a treadmill the distance walked is the belt's travel plus the pelvis' drift over it.
-  const Eigen::Vector2d belt(belt_velocity.x(), belt_velocity.z());
-  auto walked = [&](double t0, double t1) { return (pelvis_xz(t1) - pelvis_xz(t0) - belt * (t1 - t0)).norm(); };
-  if (hs.size() >= 2) {
-    r.stride_time_s = (hs.back() - hs.front()) / (hs.size() - 1);
-    r.stride_length_m = walked(hs.front(), hs.back()) / (hs.size() - 1);
-    r.speed_m_s = r.stride_length_m / r.stride_time_s;
-  }
-  if (ns > 1) r.distance_m = walked(0, r.time_s.back());
-  if (frozen_at_s < 0)  // a walk that stopped has no direction to keep, and its belt slowed
-    r.drift_rad = walk_drift_rad(r.time_s, r.q, model.coordinate_index("pelvis_rotation"), tx, tz, belt,
-                                 cpg_in.cycle_s / (cpg_in.speed * o.speed));
-  if (hs.size() >= 2) {
-    const ContactPhases p = contact_phases(r.time_s, load[0], load[1], hs.front(), hs.back());
-    r.stance_percent_r = p.stance_percent[0], r.stance_percent_l = p.stance_percent[1], r.double_support_percent = p.double_support_percent;
-    r.flight_percent = p.flight_percent;
-  }
   r.frozen_at_s = frozen_at_s;
-  // The stand: the longest stretch after the freeze with the pelvis at rest (under 0.1 m/s over the
-  // ground) and the centre of mass over the feet; it begins when the model came to rest.
-  if (frozen_at_s >= 0 && r.fell_at_s < 0) {
-    std::size_t begin = 0;
-    bool standing = false;
-    for (std::size_t i = 0; i <= rec_pelvis_speed.size(); ++i) {
-      const bool now = i < rec_pelvis_speed.size() && r.time_s[i] >= frozen_at_s && rec_pelvis_speed[i] < 0.1 && rec_com_supported[i];
-      if (now && !standing) begin = i;
-      if (!now && standing && r.time_s[i - 1] - r.time_s[begin] >= r.stood_s) {
-        r.stopped_at_s = r.time_s[begin];
-        r.stood_s = r.time_s[i - 1] - r.time_s[begin];
-      }
-      standing = now;
-    }
-  }
-  if (o.pelvis_residuals && ns > 0) {
-    double force = 0, moment = 0;
-    for (int i = 0; i < ns; ++i) {
-      Eigen::Vector3d F = Eigen::Vector3d::Zero(), M = Eigen::Vector3d::Zero();
-      int nf = 0, nmnt = 0;
-      for (std::size_t j = 0; j < root.size(); ++j)
-        if (model.coordinates[root[j]].is_angle()) M[nmnt++ % 3] = r.residuals(i, j);
-        else F[nf++ % 3] = r.residuals(i, j);
-      force += F.norm();
-      moment += M.norm();
-    }
-    r.mean_residual_force_percent_bw = 100 * force / ns / (model.total_mass_kg() * model.gravity_m_s2.norm());
-    r.mean_residual_moment_Nm = moment / ns;
-  }
+  WalkRecord record;
+  record.root = &root, record.sphere_side = &sphere_side;
+  record.cycle_s = cpg_in.cycle_s, record.speed = cpg_in.speed * o.speed;
+  record.tracked_until_s = tracked_until, record.dt_s = dt, record.belt_velocity_m_s = belt_velocity;
+  record.pelvis_speed_m_s = &rec_pelvis_speed, record.com_supported = &rec_com_supported;
+  record.residuals = o.pelvis_residuals;
+  measure_walk(model, record, r);
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return r;
-}
-
-double walk_drift_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, int yaw, int tx, int tz, const Eigen::Vector2d& belt_xz_m_s,
-                      double cycle_s) {
-  const int ns = static_cast<int>(time_s.size());
-  if (ns < 2 || tx < 0 || tz < 0 || !(cycle_s > 0) || time_s.back() / 2 < cycle_s) return 0;
-  // The direction of travel over the belt and the mean yaw over the cycle ending at t1.
-  auto direction_and_yaw = [&](double t1) {
-    const double t0 = t1 - cycle_s;
-    auto at = [&](double t) {
-      const auto i = static_cast<Eigen::Index>(std::lower_bound(time_s.begin(), time_s.end(), t - 1e-9) - time_s.begin());
-      return std::min<Eigen::Index>(i, ns - 1);
-    };
-    const Eigen::Index i0 = at(t0), i1 = at(t1);
-    const Eigen::Vector2d d = Eigen::Vector2d(q(i1, tx) - q(i0, tx), q(i1, tz) - q(i0, tz)) - belt_xz_m_s * (time_s[i1] - time_s[i0]);
-    const double mean_yaw = yaw >= 0 ? q.col(yaw).segment(i0, i1 - i0 + 1).mean() : 0.0;
-    return Eigen::Vector2d(std::atan2(-d.y(), d.x()), mean_yaw);
-  };
-  Eigen::Vector2d change = direction_and_yaw(time_s.back()) - direction_and_yaw(time_s.back() / 2);
-  change[0] = std::remainder(change[0], 2 * M_PI);  // a turn through the direction's branch cut
-  return change.cwiseAbs().sum();
 }
 
 double reproduced_gait_begin_s(const CpgModel& cpg, double reference_front_s, double reference_end_s, const ReproducedGaitOptions& o) {

@@ -191,12 +191,6 @@ struct ReproducedGaitResult {
   std::string BriefReport() const;
 };
 
-// ReproducedGaitResult::drift_rad of a walk sampled at time_s (from 0, rising), q its coordinates (rows:
-// samples; yaw, tx, tz: the columns of the pelvis' yaw (rad; < 0: none) and horizontal position (m)),
-// on a ground moving at belt_xz_m_s (m/s, ground x and z), its gait cycle cycle_s long (s).
-double walk_drift_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, int yaw, int tx, int tz, const Eigen::Vector2d& belt_xz_m_s,
-                      double cycle_s);
-
 // Where in the reference (s) a simulation with these options begins: begin_time_s if given, else the
 // heel strike plus the CPG's start phase, or earlier where the reference would end before duration_s.
 double reproduced_gait_begin_s(const CpgModel& cpg, double reference_front_s, double reference_end_s, const ReproducedGaitOptions& o);
