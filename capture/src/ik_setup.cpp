@@ -97,39 +97,42 @@ IkTaskSet parse_ik_tasks_json(const std::string& content, const std::string& nam
   const nlohmann::json j = parse_json_input(content, name);
   if (!j.is_object()) throw InputError(name, 0, "", "expected a JSON object with \"markers\" and \"coordinates\"");
   IkTaskSet tasks;
-  try {
-    if (j.contains("markers")) {
-      for (const auto& [marker, v] : j.at("markers").items()) {
-        IkMarkerTask t{marker};
-        if (v.is_number()) {
-          t.weight = v.get<double>();
-        } else {
-          t.weight = v.value("weight", 1.0);
-          t.apply = v.value("apply", true);
-        }
-        tasks.markers.push_back(t);
+  // Each task is a weight, or an object of its fields; each list an object by name.
+  auto task_object = [&](const std::string& list, const std::string& task, const nlohmann::json& v) {
+    if (!v.is_object()) throw InputError(name, 0, list + "." + task, "expected a weight or an object {\"weight\", \"apply\", ...}");
+    return list + "." + task;
+  };
+  for (const char* list : {"markers", "coordinates"})
+    if (j.contains(list) && !j[list].is_object()) throw InputError(name, 0, list, "expected an object of tasks by name");
+  if (j.contains("markers")) {
+    for (const auto& [marker, v] : j["markers"].items()) {
+      IkMarkerTask t{marker};
+      if (v.is_number()) {
+        t.weight = v.get<double>();
+      } else {
+        const std::string field = task_object("markers", marker, v);
+        t.weight = json_field_or(v, "weight", 1.0, name, field);
+        t.apply = json_field_or(v, "apply", true, name, field);
       }
+      tasks.markers.push_back(t);
     }
-    if (j.contains("coordinates")) {
-      for (const auto& [coord, v] : j.at("coordinates").items()) {
-        IkCoordinateTask t;
-        t.name = coord;
-        if (v.is_number()) {
-          t.weight = v.get<double>();
-        } else {
-          t.weight = v.value("weight", 1.0);
-          t.apply = v.value("apply", true);
-          t.value = v.value("value", 0.0);
-          t.value_type = value_type_from(v.value("value_type", std::string("default_value")),
-                                         [&](const std::string& m) {
-                                           throw InputError(name, 0, "coordinates." + t.name + ".value_type", m);
-                                         });
-        }
-        tasks.coordinates.push_back(t);
+  }
+  if (j.contains("coordinates")) {
+    for (const auto& [coord, v] : j["coordinates"].items()) {
+      IkCoordinateTask t;
+      t.name = coord;
+      if (v.is_number()) {
+        t.weight = v.get<double>();
+      } else {
+        const std::string field = task_object("coordinates", coord, v);
+        t.weight = json_field_or(v, "weight", 1.0, name, field);
+        t.apply = json_field_or(v, "apply", true, name, field);
+        t.value = json_field_or(v, "value", 0.0, name, field);
+        t.value_type = value_type_from(json_field_or(v, "value_type", std::string("default_value"), name, field),
+                                       [&](const std::string& m) { throw InputError(name, 0, field + ".value_type", m); });
       }
+      tasks.coordinates.push_back(t);
     }
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(name, 0, "", std::string("unexpected JSON shape: ") + e.what());
   }
   return tasks;
 }

@@ -237,7 +237,38 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
             std::vector<double>({250, 17, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25}));
   bad = named.to_json();
   bad["controller"]["foot_placement"]["lateral_v_s"] = "fast";
-  EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
+  // Each mistyped member is refused by name.
+  auto field_of = [](const nlohmann::json& doc) {
+    try {
+      CpgModel::from_json(doc, "model.json");
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), "model.json");
+      return e.field();
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(field_of(bad), "controller.foot_placement.lateral_v_s");
+  bad = named.to_json();
+  bad["controller"]["foot_placement"] = 0.3;
+  EXPECT_EQ(field_of(bad), "controller.foot_placement");
+  bad = named.to_json();
+  bad["controller"]["simulation"]["integrator"] = 2;
+  EXPECT_EQ(field_of(bad), "controller.simulation.integrator");
+  bad = named.to_json();
+  bad["controller"]["phase_reference"] = "yes";
+  EXPECT_EQ(field_of(bad), "controller.phase_reference");
+  bad = named.to_json();
+  bad["controller_schedule"] = nlohmann::json::array({named.to_json()["controller"]});
+  bad["controller_schedule"][0]["speed"] = "slow";
+  EXPECT_EQ(field_of(bad), "controller_schedule[0].speed");
+  bad["controller_schedule"] = named.to_json()["controller"];
+  EXPECT_EQ(field_of(bad), "controller_schedule");
+  bad = named.to_json();
+  bad["muscles"] = "soleus_r";
+  EXPECT_EQ(field_of(bad), "muscles");
+  bad = named.to_json();
+  bad["cycle_s"] = nullptr;
+  EXPECT_EQ(field_of(bad), "cycle_s");
   // The feet it was tuned on: 2 when the JSON predates them, as written otherwise, 2, 5 or 0 only.
   EXPECT_EQ(k.foot_spheres, 2);
   named.controller->foot_spheres = 5;

@@ -125,8 +125,22 @@ TEST(Ik, TaskFilesInJsonAndXml) {
   ASSERT_EQ(j.coordinates.size(), 1u);
   EXPECT_EQ(j.coordinates[0].value_type, IkCoordinateTask::ValueType::kManualValue);
   EXPECT_DOUBLE_EQ(j.coordinates[0].value, 0.1);
-  EXPECT_THROW(parse_ik_tasks_json(R"({"coordinates": {"x": {"value_type": "guess"}}})", "t.json"), InputError);
   EXPECT_THROW(parse_ik_tasks_json("[1, 2]", "t.json"), InputError);
+  // A mistyped task names its field.
+  auto field_of = [](const std::string& text) {
+    try {
+      parse_ik_tasks_json(text, "t.json");
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), "t.json");
+      return e.field();
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(field_of(R"({"coordinates": {"x": {"value_type": "guess"}}})"), "coordinates.x.value_type");
+  EXPECT_EQ(field_of(R"({"markers": {"RASI": {"weight": "heavy"}}})"), "markers.RASI.weight");
+  EXPECT_EQ(field_of(R"({"markers": {"RASI": "heavy"}})"), "markers.RASI");
+  EXPECT_EQ(field_of(R"({"coordinates": {"knee": {"apply": 1.5}}})"), "coordinates.knee.apply");
+  EXPECT_EQ(field_of(R"({"markers": ["RASI"]})"), "markers");
 }
 
 TEST(IkReference, ReadsOpenSimsIkSetup) {

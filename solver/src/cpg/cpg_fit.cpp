@@ -11,6 +11,7 @@
 #include <random>
 
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/json_input.h"
 #include "cpgait/dynamics/rosenbrock_w.h"
 #include "cpgait/cpg/pattern_layer.h"
 #include "cpgait/optim/nnls.h"
@@ -645,8 +646,11 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
     for (Eigen::Index i = 0; i < rows; ++i) out.row(i) = vec(v[i], field, cols).transpose();
     return out;
   };
+  // A member or its fallback when absent; mistyped, an InputError naming it (at.key).
+  auto field_or = [&](const nlohmann::json& o, const char* key, auto fallback, const std::string& at) { return json_field_or(o, key, fallback, source, at); };
   try {
     CpgModel m;
+    if (!j.is_object()) fail("", "expected a CPG JSON object (cpgait cpg fit's output)");
     const auto& n = j.at("network");
     m.network.s = vec(n.at("s"), "network.s", -1);
     const Eigen::Index N = m.network.s.size();
@@ -657,17 +661,18 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
     if ((m.network.tau_r_s.array() <= 0).any() || (m.network.tau_a_s.array() <= 0).any()) fail("network.tau", "time constants must be positive");
     m.start.x = vec(j.at("start").at("x"), "start.x", N);
     m.start.f = vec(j.at("start").at("f"), "start.f", N);
-    m.cycle_s = j.value("cycle_s", 1.0);
-    m.speed = j.value("speed", 1.0);
-    m.amplitude = j.value("amplitude", 1.0);
+    m.cycle_s = field_or(j, "cycle_s", 1.0, "");
+    m.speed = field_or(j, "speed", 1.0, "");
+    m.amplitude = field_or(j, "amplitude", 1.0, "");
     if (!(m.speed > 0)) fail("speed", "must be positive");
-    m.muscle_names = j.at("muscles").get<std::vector<std::string>>();
+    m.muscle_names = json_field<std::vector<std::string>>(j, "muscles", source, "");
     const Eigen::Index M = static_cast<Eigen::Index>(m.muscle_names.size());
     m.output_map = mat(j.at("output_map"), "output_map", M, N);
     m.output_bias = vec(j.at("output_bias"), "output_bias", M);
     if ((m.output_map.array() < 0).any() || (m.output_bias.array() < 0).any()) fail("output_map", "weights must be non-negative");
     if (j.contains("feedback")) {
-      m.feedback_signals = j["feedback"].value("signals", std::vector<std::string>{});
+      if (!j["feedback"].is_object()) fail("feedback", "expected {\"signals\", \"gains\"}");
+      m.feedback_signals = field_or(j["feedback"], "signals", std::vector<std::string>{}, "feedback");
       m.feedback_gains = m.feedback_signals.empty() ? Eigen::MatrixXd::Zero(N, 0)
                                                     : mat(j["feedback"].at("gains"), "feedback.gains", N, static_cast<Eigen::Index>(m.feedback_signals.size()));
     } else {
@@ -675,41 +680,43 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
     }
     // A controller's JSON (CpgController::to_json); field: where it sits, for errors.
     auto controller = [&](const nlohmann::json& c, const std::string& field) {
+      if (!c.is_object()) fail(field, "expected a controller object (reflex, balance and simulation settings)");
       CpgController k;
-      k.reflex_kp = c.value("reflex_kp", k.reflex_kp);
-      k.reflex_kv = c.value("reflex_kv", k.reflex_kv);
-      k.phase_reference = c.value("phase_reference", k.phase_reference);
-      k.pelvis_residuals = c.value("pelvis_residuals", k.pelvis_residuals);
-      k.start_time_s = c.value("start_time_s", k.start_time_s);
-      k.begin_time_s = c.value("begin_time_s", k.begin_time_s);
-      k.speed = c.value("speed", k.speed);
-      k.foot_spheres = c.value("foot_spheres", k.foot_spheres);
+      k.reflex_kp = field_or(c, "reflex_kp", k.reflex_kp, field);
+      k.reflex_kv = field_or(c, "reflex_kv", k.reflex_kv, field);
+      k.phase_reference = field_or(c, "phase_reference", k.phase_reference, field);
+      k.pelvis_residuals = field_or(c, "pelvis_residuals", k.pelvis_residuals, field);
+      k.start_time_s = field_or(c, "start_time_s", k.start_time_s, field);
+      k.begin_time_s = field_or(c, "begin_time_s", k.begin_time_s, field);
+      k.speed = field_or(c, "speed", k.speed, field);
+      k.foot_spheres = field_or(c, "foot_spheres", k.foot_spheres, field);
       if (k.foot_spheres != 0 && k.foot_spheres != 2 && k.foot_spheres != 5)
         fail(field + ".foot_spheres", "the feet it was tuned on: 2 or 5 spheres per foot, or 0 for a contact file");
-      k.trunk_kp = c.value("trunk_kp", k.trunk_kp);
-      k.trunk_kv = c.value("trunk_kv", k.trunk_kv);
+      k.trunk_kp = field_or(c, "trunk_kp", k.trunk_kp, field);
+      k.trunk_kv = field_or(c, "trunk_kv", k.trunk_kv, field);
       if (c.contains("entrainment")) {
         const auto& e = c["entrainment"];
         if (!e.is_object()) fail(field + ".entrainment", "expected {\"share\", \"phase_r\", \"phase_l\"}");
-        k.entrainment = e.value("share", k.entrainment);
-        k.entrainment_phase_r = e.value("phase_r", k.entrainment_phase_r);
-        k.entrainment_phase_l = e.value("phase_l", k.entrainment_phase_l);
+        k.entrainment = field_or(e, "share", k.entrainment, field + ".entrainment");
+        k.entrainment_phase_r = field_or(e, "phase_r", k.entrainment_phase_r, field + ".entrainment");
+        k.entrainment_phase_l = field_or(e, "phase_l", k.entrainment_phase_l, field + ".entrainment");
         if (!(k.entrainment >= 0 && k.entrainment <= 1)) fail(field + ".entrainment.share", "the share of the phase error made up at a touchdown lies in [0, 1]");
         if (!std::isfinite(k.entrainment_phase_r) || !std::isfinite(k.entrainment_phase_l)) fail(field + ".entrainment.phase_r", "heel-strike phases must be finite numbers");
       }
       if (c.contains("foot_placement")) {
         const auto& fp = c["foot_placement"];
-        k.lateral_d = fp.value("lateral_d", k.lateral_d);
-        k.lateral_v = fp.value("lateral_v_s", k.lateral_v);
-        k.sagittal_d = fp.value("sagittal_d", k.sagittal_d);
-        k.sagittal_v = fp.value("sagittal_v_s", k.sagittal_v);
+        if (!fp.is_object()) fail(field + ".foot_placement", "expected {\"lateral_d\", \"lateral_v_s\", \"sagittal_d\", \"sagittal_v_s\"}");
+        k.lateral_d = field_or(fp, "lateral_d", k.lateral_d, field + ".foot_placement");
+        k.lateral_v = field_or(fp, "lateral_v_s", k.lateral_v, field + ".foot_placement");
+        k.sagittal_d = field_or(fp, "sagittal_d", k.sagittal_d, field + ".foot_placement");
+        k.sagittal_v = field_or(fp, "sagittal_v_s", k.sagittal_v, field + ".foot_placement");
       }
       if (c.contains("simulation")) {
         const auto& sim = c["simulation"];
         if (!sim.is_object()) fail(field + ".simulation", "expected {\"control_interval_s\", \"integrator\", \"tolerance\"}");
-        k.control_interval_s = sim.value("control_interval_s", k.control_interval_s);
-        k.integrator_tolerance = sim.value("tolerance", k.integrator_tolerance);
-        k.integrator = sim.value("integrator", k.integrator);
+        k.control_interval_s = field_or(sim, "control_interval_s", k.control_interval_s, field + ".simulation");
+        k.integrator_tolerance = field_or(sim, "tolerance", k.integrator_tolerance, field + ".simulation");
+        k.integrator = field_or(sim, "integrator", k.integrator, field + ".simulation");
         if (!(k.control_interval_s >= 0 && k.control_interval_s <= 0.01))
           fail(field + ".simulation.control_interval_s", "the controller's interval lies in (0, 0.01] s (0: not recorded)");
         if (!(k.integrator_tolerance >= 0 && k.integrator_tolerance <= 0.1))
@@ -726,10 +733,11 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
     if (j.contains("controller")) m.controller = controller(j["controller"], "controller");
     if (j.contains("controller_schedule")) {
       if (!m.controller) fail("controller_schedule", "a schedule needs the controller it extends");
+      if (!j["controller_schedule"].is_array()) fail("controller_schedule", "expected an array of controllers, one per speed knob");
       for (std::size_t i = 0; i < j["controller_schedule"].size(); ++i) {
         const std::string field = "controller_schedule[" + std::to_string(i) + "]";
         const auto& e = j["controller_schedule"][i];
-        ScheduledController s{controller(e, field), e.value("amplitude", m.amplitude)};
+        ScheduledController s{controller(e, field), field_or(e, "amplitude", m.amplitude, field)};
         if (!(s.amplitude >= 0)) fail(field + ".amplitude", "must be non-negative");
         m.speed_schedule.push_back(s);
       }
