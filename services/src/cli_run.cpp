@@ -75,7 +75,10 @@ TrialInputs resolve_inputs(const RunArgs& a, PipelineOptions& options) {
       in.videos.push_back(camera + "=" + fs::absolute(path).string());  // job.json then works from anywhere
     }
   } else if (options.inputs.contains("videos") && options.inputs["videos"].is_array()) {
-    for (const auto& v : options.inputs["videos"]) in.videos.push_back(v.get<std::string>());
+    for (const auto& v : options.inputs["videos"]) {
+      if (!v.is_string()) throw InputError(a.options, 0, "inputs.videos", "expected camera=path strings, as --video takes them");
+      in.videos.push_back(v.get<std::string>());
+    }
   }
   if (in.model_path.empty() || (markers.empty() && !in.has_footage()))
     throw InputError(a.options.empty() ? "cpgait run" : a.options, 0, "inputs",

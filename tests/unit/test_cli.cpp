@@ -607,6 +607,9 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   std::ofstream(dir + "/bad_feet.json") << R"({"gait": {"foot_spheres": 3}})";
   const CliRun bad_feet = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/bad_feet.json -o " + dir + "/bad_feet");
   expect_refused(bad_feet, 2, "gait.foot_spheres");
+  std::ofstream(dir + "/bad_videos.json") << R"({"inputs": {"videos": ["cam0=a.mp4", 1]}})";
+  const CliRun bad_videos = run("run --model " + model + " --options " + dir + "/bad_videos.json -o " + dir + "/bad_videos");
+  expect_refused(bad_videos, 2, "inputs.videos");
   fs::remove_all(dir);
 }
 
