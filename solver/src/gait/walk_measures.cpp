@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "cpgait/dynamics/inverse_dynamics.h"
-
 namespace cpgait {
 
 ContactPhases contact_phases(const std::vector<double>& time_s, const std::vector<double>& load_r, const std::vector<double>& load_l,
