@@ -97,43 +97,39 @@ IkTaskSet parse_ik_tasks_json(const std::string& content, const std::string& nam
   const nlohmann::json j = parse_json_input(content, name);
   if (!j.is_object()) throw InputError(name, 0, "", "expected a JSON object with \"markers\" and \"coordinates\"");
   IkTaskSet tasks;
-  // Each task is a weight, or an object of its fields; each list an object by name.
-  auto task_object = [&](const std::string& list, const std::string& task, const nlohmann::json& v) {
-    if (!v.is_object()) throw InputError(name, 0, list + "." + task, "expected a weight or an object {\"weight\", \"apply\", ...}");
-    return list + "." + task;
+  // A task is a weight, or an object of its fields: reads the weight and `apply` into t and returns
+  // the task's field name for the rest ("" for a bare weight). Each list is an object by name.
+  auto weight_and_apply = [&](auto& t, const std::string& list, const std::string& task, const nlohmann::json& v) {
+    if (v.is_number()) {
+      t.weight = v.get<double>();
+      return std::string();
+    }
+    const std::string field = list + "." + task;
+    if (!v.is_object()) throw InputError(name, 0, field, "expected a weight or an object {\"weight\", \"apply\", ...}");
+    t.weight = json_field_or(v, "weight", 1.0, name, field);
+    t.apply = json_field_or(v, "apply", true, name, field);
+    return field;
   };
   for (const char* list : {"markers", "coordinates"})
     if (j.contains(list) && !j[list].is_object()) throw InputError(name, 0, list, "expected an object of tasks by name");
-  if (j.contains("markers")) {
+  if (j.contains("markers"))
     for (const auto& [marker, v] : j["markers"].items()) {
       IkMarkerTask t{marker};
-      if (v.is_number()) {
-        t.weight = v.get<double>();
-      } else {
-        const std::string field = task_object("markers", marker, v);
-        t.weight = json_field_or(v, "weight", 1.0, name, field);
-        t.apply = json_field_or(v, "apply", true, name, field);
-      }
+      weight_and_apply(t, "markers", marker, v);
       tasks.markers.push_back(t);
     }
-  }
-  if (j.contains("coordinates")) {
+  if (j.contains("coordinates"))
     for (const auto& [coord, v] : j["coordinates"].items()) {
       IkCoordinateTask t;
       t.name = coord;
-      if (v.is_number()) {
-        t.weight = v.get<double>();
-      } else {
-        const std::string field = task_object("coordinates", coord, v);
-        t.weight = json_field_or(v, "weight", 1.0, name, field);
-        t.apply = json_field_or(v, "apply", true, name, field);
+      const std::string field = weight_and_apply(t, "coordinates", coord, v);
+      if (!field.empty()) {
         t.value = json_field_or(v, "value", 0.0, name, field);
         t.value_type = value_type_from(json_field_or(v, "value_type", std::string("default_value"), name, field),
                                        [&](const std::string& m) { throw InputError(name, 0, field + ".value_type", m); });
       }
       tasks.coordinates.push_back(t);
     }
-  }
   return tasks;
 }
 
