@@ -11,6 +11,7 @@
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/dynamics/inverse_dynamics.h"
 #include "cpgait/gait/reproduced_gait.h"
+#include "cpgait/gait/gain_margin.h"
 #include "cpgait/gait/tune_gait_controller.h"
 #include "cpgait/kinematics/gait_events.h"
 #include "cpgait/model/osim_reader.h"
@@ -155,6 +156,7 @@ struct GaitArgs {
   int foot_spheres = 0;  // 0: the CPG controller's feet, else 2
   GaitTuningOptions tuning;
   int tune = 0;
+  double gain_margin = 0;  // 0: no gain-margin walks
   std::vector<double> push_force_N;
   std::vector<double> tune_pushes_N_s;  // x y z per push
   // --tolerance, --control-interval, --integrator: given, they win over the simulation a controller was tuned in.
@@ -273,8 +275,19 @@ void run_gait(const GaitArgs& g) {
   write_storage_atomic(reproduced_gait_motion_table(model, r), g.out + "_gait.mot");
   write_storage_atomic(reproduced_gait_residual_table(r), g.out + "_gait_residuals.sto");
   write_storage_atomic(reproduced_gait_contact_table(r), g.out + "_gait_contact_forces.sto");
-  write_text_atomic(g.out + "_gait.json", json_text(reproduced_gait_metrics(model, r), 2) + "\n");
-  std::printf("%s\nwrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", r.BriefReport().c_str(), g.out.c_str());
+  std::printf("%s\n", r.BriefReport().c_str());
+  nlohmann::json metrics = reproduced_gait_metrics(model, r);
+  if (g.gain_margin > 0) {
+    const GainMarginSummary margin = gain_margin(model, driving, kin, contacts, o, {g.gain_margin});
+    std::printf("%s\n", margin.BriefReport().c_str());
+    nlohmann::json walks = nlohmann::json::array();
+    for (const GainMarginWalk& w : margin.walks)
+      walks.push_back({{"gain", w.gain}, {"scale", w.scale}, {"walked_s", w.walked_s}, {"fell", w.fell}});
+    metrics["gain_margin"] = {{"factor", g.gain_margin}, {"still_walking", margin.still_walking}, {"median_walked_s", margin.median_walked_s},
+                              {"walks", walks}};
+  }
+  write_text_atomic(g.out + "_gait.json", json_text(metrics, 2) + "\n");
+  std::printf("wrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", g.out.c_str());
 }
 
 // gait's --tune* options: the controller's tuning before the walk.
@@ -350,30 +363,8 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
 }
 
 // gait: the reproduced gait, driven by a fitted CPG.
-void add_gait_command(CLI::App& app) {
-  auto* gait = app.add_subcommand(
-      "gait",
-      "Reproduced gait: the muscle-driven model on contact spheres (no GRF) fitted to the trial's feet, excited\n"
-      "by a fitted CPG with its feedback and a joint-angle reflex, the pelvis' rotations held on the trial's\n"
-      "kinematics by residual actuators and its translations by soft springs (reported; --no-residuals to walk\n"
-      "without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
-      "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
-      "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
-  auto g = std::make_shared<GaitArgs>();
-  gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
-  gait->add_option("--scale-muscles-from", g->generic_model,
-                   "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
-      ->check(CLI::ExistingFile);
-  gait->add_option("--cpg", g->cpg, "fitted CPG (cpgait cpg fit, or the pipeline's _cpg.json)")->required()->check(CLI::ExistingFile);
-  gait->add_option("--kinematics", g->kinematics, "the trial's coordinates (IK .mot): initial state, reference")->required()->check(CLI::ExistingFile);
-  gait->add_option("--start", g->start, "a heel strike of the CPG's foot in the trial, s (default: the first, Zeni's method)");
-  gait->add_option("--begin", g->options.begin_time_s,
-                   "where the simulation begins in the trial, s (default: at the heel strike, at the CPG's start phase)");
-  gait->add_option("--duration", g->options.duration_s, "simulated time, s")->check(CLI::Range(0.01, 60.0))->capture_default_str();
-  gait->add_option("--speed", g->options.speed, "CPG speed knob (the reference is time-scaled alike)")->check(CLI::Range(0.2, 5.0))->capture_default_str();
-  gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
-  gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
-  add_gait_tuning_options(gait, g.get());
+// gait's trials of a walk: walk -> stand, a push, a ground step, and the gain margin.
+void add_gait_trial_options(CLI::App* gait, GaitArgs* g) {
   gait->add_option("--stop-at", g->options.stop_time_s,
                    "walk -> stand: from this time, s, stop the walk at the next --stop-phase: the CPG fades out, the reflexes turn to a "
                    "standing pose (feet flat, the centre of mass over them) and an ankle and hip balance holds it");
@@ -401,6 +392,38 @@ void add_gait_command(CLI::App& app) {
   gait->add_option("--step-time", g->options.ground_step_time_s,
                    "when the step's edge reaches where the pelvis started (carried by a treadmill's belt), s")
       ->capture_default_str();
+  gait->add_option("--gain-margin", g->gain_margin,
+                   "after the walk, walk again with each feedback gain (reflex, trunk, foot placement) scaled in turn by F and by 1/F, "
+                   "the others as they are: how many still walk (_gait.json's gain_margin), e.g. 0.8 (0: none)")
+      ->check(CLI::Range(0.0, 0.999))
+      ->capture_default_str();
+}
+
+void add_gait_command(CLI::App& app) {
+  auto* gait = app.add_subcommand(
+      "gait",
+      "Reproduced gait: the muscle-driven model on contact spheres (no GRF) fitted to the trial's feet, excited\n"
+      "by a fitted CPG with its feedback and a joint-angle reflex, the pelvis' rotations held on the trial's\n"
+      "kinematics by residual actuators and its translations by soft springs (reported; --no-residuals to walk\n"
+      "without). Outputs: PREFIX_gait.mot (deg, m), _gait_residuals.sto\n"
+      "(N m, N), _gait_contact_forces.sto (N, ground frame), _gait.json (heel strikes, stride time and length,\n"
+      "speed, tracking RMS per coordinate against the trial (deg or m), residuals as % body weight, falls).");
+  auto g = std::make_shared<GaitArgs>();
+  gait->add_option("--model", g->model, "OpenSim model (.osim) with muscles")->required()->check(CLI::ExistingFile);
+  gait->add_option("--scale-muscles-from", g->generic_model,
+                   "generic .osim the model was scaled from: muscle fibre and tendon lengths scaled as OpenSim's ScaleTool does")
+      ->check(CLI::ExistingFile);
+  gait->add_option("--cpg", g->cpg, "fitted CPG (cpgait cpg fit, or the pipeline's _cpg.json)")->required()->check(CLI::ExistingFile);
+  gait->add_option("--kinematics", g->kinematics, "the trial's coordinates (IK .mot): initial state, reference")->required()->check(CLI::ExistingFile);
+  gait->add_option("--start", g->start, "a heel strike of the CPG's foot in the trial, s (default: the first, Zeni's method)");
+  gait->add_option("--begin", g->options.begin_time_s,
+                   "where the simulation begins in the trial, s (default: at the heel strike, at the CPG's start phase)");
+  gait->add_option("--duration", g->options.duration_s, "simulated time, s")->check(CLI::Range(0.01, 60.0))->capture_default_str();
+  gait->add_option("--speed", g->options.speed, "CPG speed knob (the reference is time-scaled alike)")->check(CLI::Range(0.2, 5.0))->capture_default_str();
+  gait->add_option("--amplitude", g->options.amplitude, "CPG amplitude knob")->check(CLI::Range(0.0, 5.0))->capture_default_str();
+  gait->add_flag("--no-residuals", g->no_residuals, "no pelvis residual actuators: walk until the model falls");
+  add_gait_tuning_options(gait, g.get());
+  add_gait_trial_options(gait, g.get());
   gait->add_option("--entrainment", g->entrainment,
                    "the CPG's entrainment by phase resetting: at each touchdown this share (0-1) of its phase error against the "
                    "foot's heel-strike phase is made up over about 0.1 s (default: the controller's, else 0: open loop)")

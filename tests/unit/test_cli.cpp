@@ -459,6 +459,24 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   ASSERT_EQ(replay.status, 0) << replay.output;
   EXPECT_NE(replay.output.find("controller from the CPG"), std::string::npos) << replay.output;
   EXPECT_NE(replay.output.find("without residuals"), std::string::npos) << replay.output;
+  // --gain-margin: the replay again with each feedback gain at 0.8 and 1.25 times, 16 walks in _gait.json.
+  const CliRun margin = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                            "/out/w_ik.mot --duration 0.5 --gain-margin 0.8 -o " + dir + "/margin");
+  ASSERT_EQ(margin.status, 0) << margin.output;
+  EXPECT_NE(margin.output.find("gain margin: "), std::string::npos) << margin.output;
+  const nlohmann::json gm = nlohmann::json::parse(cpgait::text::read_file(dir + "/margin_gait.json"))["gain_margin"];
+  ASSERT_EQ(gm["walks"].size(), 16u) << gm.dump();
+  EXPECT_EQ(gm["factor"].get<double>(), 0.8);
+  EXPECT_EQ(gm["walks"][0]["gain"], "reflex_kp");
+  EXPECT_EQ(gm["walks"][1]["scale"].get<double>(), 1.25);
+  int still = 0;
+  for (const nlohmann::json& w : gm["walks"]) {
+    still += !w["fell"].get<bool>();
+    EXPECT_LE(w["walked_s"].get<double>(), 0.5 + 1e-12);
+  }
+  EXPECT_EQ(gm["still_walking"].get<int>(), still);
+  EXPECT_NE(run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                "/out/w_ik.mot --duration 0.5 --gain-margin 1.5 -o " + dir + "/margin").status, 0);
   // Feet from a file: without a ground of its own it gets the default feet's, placed under the recorded
   // feet (on the walker's treadmill-free trial: still) with the spheres fitted; with one, the file's.
   const std::string spheres = R"("spheres": [{"name": "heel_r", "body": "foot_r", "location_m": [0, -0.04, 0]}, {"name": "heel_l", "body": "foot_l", "location_m": [0, -0.04, 0]}], "defaults": {"radius_m": 0.03})";

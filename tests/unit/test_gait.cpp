@@ -5,6 +5,7 @@
 #include "cpgait/cpg/cpg_fit.h"
 #include "cpgait/cpg/matsuoka.h"
 #include "cpgait/dynamics/contact.h"
+#include "cpgait/gait/gain_margin.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/gait/simbicon_balance.h"
 #include "cpgait/gait/standing_balance.h"
@@ -1166,6 +1167,59 @@ TEST(GaitTuning, RestartsBeginOnlyWithinTheSimulatedTimeBudget) {
   EXPECT_EQ(bounded.cpg.controller->trunk_kp, round.cpg.controller->trunk_kp);
   t.restart_budget_s = -1;
   EXPECT_THROW(q.tune(t), std::invalid_argument);
+}
+
+// The gain margin walks the controller again with each feedback gain scaled in turn by the factor
+// and by its inverse: 16 walks, named and scaled in order, each the walk reproduce_gait takes with that
+// one gain scaled. Without residuals the still walker sinks, a little more or less by its reflex'
+// gain: with the fall height set between the lowest pelvis of its walks at 0.8 and 1.25 times the
+// reflex's kp, the one that sinks lower falls and the other walks, as they do alone, to the bit. Kept from falling (no fall
+// height) all 16 walk their duration. A factor outside (0, 1) is refused.
+TEST(GainMargin, WalksAgainWithEachGainScaledInTurn) {
+  const StillWalker w;
+  ReproducedGaitOptions o = falling_walk();
+  o.fall_height_fraction = -1e9;
+  GainMarginOptions m;
+  m.num_threads = 2;
+  const GainMarginSummary kept = gain_margin(w.m, w.cpg, w.reference, w.feet, o, m);
+  ASSERT_EQ(kept.walks.size(), 16u);
+  const char* names[] = {"reflex_kp", "reflex_kv", "trunk_kp", "trunk_kv", "lateral_d", "lateral_v", "sagittal_d", "sagittal_v"};
+  for (int i = 0; i < 8; ++i) {
+    EXPECT_EQ(kept.walks[2 * i].gain, names[i]);
+    EXPECT_EQ(kept.walks[2 * i + 1].gain, names[i]);
+    EXPECT_EQ(kept.walks[2 * i].scale, 0.8);
+    EXPECT_EQ(kept.walks[2 * i + 1].scale, 1.25);
+  }
+  EXPECT_EQ(kept.still_walking, 16);
+  EXPECT_EQ(kept.median_walked_s, o.duration_s);
+  // The lowest pelvis over the walk, a share of its start.
+  const int ty = w.m.coordinate_index("pelvis_ty");
+  auto lowest = [&](double kp_scale) {
+    ReproducedGaitOptions x = o;
+    x.reflex_kp *= kp_scale;
+    const ReproducedGaitResult r = reproduce_gait(w.m, w.cpg, w.reference, w.feet, x);
+    return r.q.col(ty).minCoeff() / r.q(0, ty);
+  };
+  const double at_08 = lowest(0.8), at_125 = lowest(1.25);
+  std::printf("[info] lowest pelvis over 0.3 s: %.5f of its start at 0.8 x kp, %.5f at 1.25 x\n", at_08, at_125);
+  ASSERT_NE(at_08, at_125);
+  o.fall_height_fraction = 0.5 * (at_08 + at_125);
+  const GainMarginSummary split = gain_margin(w.m, w.cpg, w.reference, w.feet, o, m);
+  std::printf("[info] %s\n", split.BriefReport().c_str());
+  const int falls = at_08 < at_125 ? 0 : 1, walks = 1 - falls;  // the walk that sinks lower falls
+  ReproducedGaitOptions lower = o;
+  lower.reflex_kp *= falls == 0 ? 0.8 : 1.25;
+  const ReproducedGaitResult alone = reproduce_gait(w.m, w.cpg, w.reference, w.feet, lower);
+  ASSERT_GE(alone.fell_at_s, 0);
+  EXPECT_TRUE(split.walks[falls].fell);
+  EXPECT_EQ(split.walks[falls].walked_s, alone.fell_at_s);
+  EXPECT_FALSE(split.walks[walks].fell);
+  EXPECT_EQ(split.walks[walks].walked_s, o.duration_s);
+  EXPECT_LT(split.still_walking, 16);
+  for (double factor : {0.0, 1.0, 1.25}) {
+    m.factor = factor;
+    EXPECT_THROW(gain_margin(w.m, w.cpg, w.reference, w.feet, o, m), std::invalid_argument) << factor;
+  }
 }
 
 // The entrainment share is searched only when asked: from a controller's 0.5 it stays 0.5 without
