@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <exception>
 #include <cstdio>
+#include <exception>
 #include <stdexcept>
 #include <thread>
 
