@@ -280,11 +280,7 @@ void run_gait(const GaitArgs& g) {
   if (g.gain_margin > 0) {
     const GainMarginSummary margin = gain_margin(model, driving, kin, contacts, o, {g.gain_margin});
     std::printf("%s\n", margin.BriefReport().c_str());
-    nlohmann::json walks = nlohmann::json::array();
-    for (const GainMarginWalk& w : margin.walks)
-      walks.push_back({{"gain", w.gain}, {"scale", w.scale}, {"walked_s", w.walked_s}, {"fell", w.fell}});
-    metrics["gain_margin"] = {{"factor", g.gain_margin}, {"still_walking", margin.still_walking}, {"median_walked_s", margin.median_walked_s},
-                              {"walks", walks}};
+    metrics["gain_margin"] = margin.to_json();
   }
   write_text_atomic(g.out + "_gait.json", json_text(metrics, 2) + "\n");
   std::printf("wrote %s_gait.mot, _gait_residuals.sto, _gait_contact_forces.sto, _gait.json\n", g.out.c_str());

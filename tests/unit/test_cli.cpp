@@ -410,7 +410,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   ASSERT_EQ(run("synth --model " + model + " --duration 4 -o " + dir + "/w.trc").status, 0);
   std::ofstream(dir + "/options.json")
       << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "speed_knobs": [0.8], "schedule_evaluations": 4,
-             "foot_spheres": 2}})";
+             "foot_spheres": 2, "gain_margin": 0.8}})";
   const CliRun r = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/options.json -o " + dir + "/out");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json gait = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_gait.json"));
@@ -446,6 +446,18 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const nlohmann::json replayed_coarse = nlohmann::json::parse(cpgait::text::read_file(dir + "/coarse_gait.json"));
   EXPECT_NEAR(replayed_coarse["simulated_s"].get<double>(), coarse["simulated_s"].get<double>(), 1e-9);
   EXPECT_EQ(replayed_coarse["fell_at_s"], coarse["fell_at_s"]);
+  // "gain_margin": each walk again with each feedback gain scaled by 0.8 and 1.25, in the summary; the
+  // main walk's 16 are those of the CLI's replay with --gain-margin 0.8.
+  ASSERT_TRUE(gait.contains("gain_margin")) << gait.dump();
+  ASSERT_EQ(gait["gain_margin"]["walks"].size(), 16u);
+  ASSERT_EQ(gait["speed_knobs"][0]["gain_margin"]["walks"].size(), 16u) << gait["speed_knobs"].dump();
+  const CliRun replay_margin = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
+                                   "/out/w_ik.mot --duration 10 --gain-margin 0.8 -o " + dir + "/stage_margin");
+  ASSERT_EQ(replay_margin.status, 0) << replay_margin.output;
+  const nlohmann::json replayed_margin = nlohmann::json::parse(cpgait::text::read_file(dir + "/stage_margin_gait.json"))["gain_margin"];
+  EXPECT_EQ(replayed_margin["still_walking"], gait["gain_margin"]["still_walking"]);
+  for (std::size_t i = 0; i < 16; ++i)
+    EXPECT_NEAR(replayed_margin["walks"][i]["walked_s"].get<double>(), gait["gain_margin"]["walks"][i]["walked_s"].get<double>(), 1e-9) << i;
   const nlohmann::json tuned = nlohmann::json::parse(cpgait::text::read_file(dir + "/out/w_cpg_tuned.json"));
   ASSERT_TRUE(tuned.contains("controller"));
   EXPECT_EQ(tuned["controller"]["reflex_kp"].get<double>(), gait["tuning"]["controller"]["reflex_kp"].get<double>());

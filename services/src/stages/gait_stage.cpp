@@ -4,6 +4,7 @@
 
 #include "cpgait/activation/computed_muscle_control.h"
 #include "cpgait/dynamics/contact.h"
+#include "cpgait/gait/gain_margin.h"
 #include "cpgait/gait/reproduced_gait.h"
 #include "cpgait/gait/tune_gait_controller.h"
 #include "cpgait/progress.h"
@@ -38,6 +39,7 @@ struct GaitStageOptions {
   int schedule_evaluations = 600;
   double schedule_step_decay = 0.55;
   std::vector<double> check_tolerances = {5e-4, 2e-3};
+  double gain_margin = 0;
   double tolerance = 1e-3, control_interval_s = 0.0025;
   std::string integrator = "ros34pw2";
 
@@ -138,7 +140,12 @@ struct GaitStageOptions {
                          "without residuals: the walk again at each of these integrator tolerances (the walk's own: tolerance), reported in "
                          "the summary's tolerance_check; a controller that walks at its own but falls at any of these walks by one "
                          "tolerance's integration error, not by its own stability (a warning; tune it with tune_tolerances). Empty: no check",
-                         NumberRange{0.0, 0.1, true}, 4);
+                         NumberRange{0.0, 0.1, true}, 4)
+            .number("gain_margin", &GaitStageOptions::gain_margin, "",
+                    "without residuals: each walk (this one and the speed knobs') again with each feedback gain (reflex, trunk, foot "
+                    "placement) scaled in turn by this and by its inverse, 16 walks, how many still walk in its summary's gain_margin "
+                    "(0: none; e.g. 0.8: subject01's default knob-0.8 controller keeps none, docs/gait-tuning.md)",
+                    NumberRange{0.0, 0.999});
     return f;
   }
 };
@@ -169,7 +176,8 @@ struct WalksProgress {
 // The CPG's walks at other speed knobs, with the same options otherwise: each one's motion to
 // _gait_speed_<knob>.mot, its strides and falls (the stride against the CPG's cycle / knob) returned.
 nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& feet,
-                                   const ReproducedGaitOptions& options, const std::vector<double>& knobs, WalksProgress& progress) {
+                                   const ReproducedGaitOptions& options, const std::vector<double>& knobs, double margin_factor,
+                                   WalksProgress& progress) {
   nlohmann::json runs = nlohmann::json::array();
   for (double knob : knobs) {
     const CpgModel driving = scheduled_at_speed(cpg, knob);
@@ -186,6 +194,7 @@ nlohmann::json walk_at_speed_knobs(StageContext& trial, const Model& model, cons
                 {"stride_length_m", g.stride_length_m}, {"speed_m_s", g.speed_m_s}, {"distance_m", g.distance_m},
                 {"worst_rotation_rms_deg", g.worst_rotation_rms_rad * 180 / M_PI}, {"amplitude", driving.amplitude}});
     run["contact_phases"] = reproduced_gait_contact_phases(g);
+    if (margin_factor > 0 && !o.pelvis_residuals) run["gain_margin"] = gain_margin(model, driving, reference, feet, o, {margin_factor}).to_json();
     runs.push_back(run);
   }
   return runs;
@@ -377,10 +386,11 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
     summary["foot_fit"] = {{"depth_mm", fit.depth_m * 1000}, {"radius_change_mm", radius}, {"warnings", fit.warnings}};
     summary["belt_velocity_m_s"] = {feet.ground_velocity_m_s.x(), feet.ground_velocity_m_s.y(), feet.ground_velocity_m_s.z()};
     summary["cycle_over_speed_s"] = driving.cycle_s / (driving.speed * go.speed);
+    if (o.gain_margin > 0 && !go.pelvis_residuals) summary["gain_margin"] = gain_margin(model, driving, reference, feet, go, {o.gain_margin}).to_json();
     if (check)
       summary["tolerance_check"] = walk_at_tolerances(model, driving, reference, feet, go, g.fell_at_s < 0, o.check_tolerances, summary, walks_progress);
     if (!o.speed_knobs.empty())
-      summary["speed_knobs"] = walk_at_speed_knobs(trial, model, driving, reference, feet, go, o.speed_knobs, walks_progress);
+      summary["speed_knobs"] = walk_at_speed_knobs(trial, model, driving, reference, feet, go, o.speed_knobs, o.gain_margin, walks_progress);
     trial.write_text(json_text(summary, 2) + "\n", "_gait.json");
     return summary;
   }

@@ -22,6 +22,7 @@ GainMarginSummary gain_margin(const Model& model, const CpgModel& cpg, const Sto
                         {"lateral_d", nullptr, &SimbiconGains::lateral_d},     {"lateral_v", nullptr, &SimbiconGains::lateral_v},
                         {"sagittal_d", nullptr, &SimbiconGains::sagittal_d},   {"sagittal_v", nullptr, &SimbiconGains::sagittal_v}};
   GainMarginSummary s;
+  s.factor = margin.factor;
   std::vector<ReproducedGaitOptions> walks;
   for (const Gain& g : gains)
     for (double scale : {margin.factor, 1.0 / margin.factor}) {
@@ -58,6 +59,12 @@ GainMarginSummary gain_margin(const Model& model, const CpgModel& cpg, const Sto
   const std::size_t n = walked.size();
   s.median_walked_s = n % 2 ? walked[n / 2] : 0.5 * (walked[n / 2 - 1] + walked[n / 2]);
   return s;
+}
+
+nlohmann::json GainMarginSummary::to_json() const {
+  nlohmann::json list = nlohmann::json::array();
+  for (const GainMarginWalk& w : walks) list.push_back({{"gain", w.gain}, {"scale", w.scale}, {"walked_s", w.walked_s}, {"fell", w.fell}});
+  return {{"factor", factor}, {"still_walking", still_walking}, {"median_walked_s", median_walked_s}, {"walks", list}};
 }
 
 std::string GainMarginSummary::BriefReport() const {

@@ -4,6 +4,7 @@
 // in turn by a factor and by its inverse, the others as they are. A controller whose changed walks
 // still last has margin. At subject01's knob 0.8 every tuned controller fell within 3-7 s when any one
 // gain moved by a fifth, where knob 1's kept some walks (measured: docs/gait-tuning.md).
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -24,10 +25,12 @@ struct GainMarginWalk {
 };
 
 struct GainMarginSummary {
+  double factor = 0;                  // GainMarginOptions::factor
   std::vector<GainMarginWalk> walks;  // two per gain (factor, then 1 / factor), in the order above
   int still_walking = 0;              // walks that did not fall
   double median_walked_s = 0;
   std::string BriefReport() const;
+  nlohmann::json to_json() const;  // factor, still_walking, median_walked_s and the walks (gain, scale, walked_s, fell)
 };
 
 // `options`: the walk as it is taken, its controller's gains in it (with_controller). Each changed walk
