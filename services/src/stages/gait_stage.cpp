@@ -44,10 +44,9 @@ struct GaitStageOptions {
   std::string integrator = "ros34pw2";
 
   static const OptionFields<GaitStageOptions>& fields() {
-    static const OptionFields<GaitStageOptions> f =
-        OptionFields<GaitStageOptions>(
-            "Begins at the first heel strike, or earlier when the trial would end first; needs the cpg stage's fit.")
-            .optional_number("duration_s", &GaitStageOptions::duration_s, "s",
+    static const OptionFields<GaitStageOptions> f = [] {
+      OptionFields<GaitStageOptions> f("Begins at the first heel strike, or earlier when the trial would end first; needs the cpg stage's fit.");
+      f.optional_number("duration_s", &GaitStageOptions::duration_s, "s",
                              "simulated time; absent: with residuals two gait cycles, or what the trial has; without, the trial's length "
                              "and at least 10 s", NumberRange{0.0, 30.0, true})
             .boolean("residuals", &GaitStageOptions::residuals,
@@ -121,8 +120,16 @@ struct GaitStageOptions {
             .number_list("tune_tolerances", &GaitStageOptions::tune_tolerances, "",
                          "tuning: integrator tolerances every candidate's walks are taken at (each one more simulation; linearly_implicit_euler: "
                          "in ros34pw2, besides its own), so the controller walks by its own stability (empty: tolerance alone)",
-                         NumberRange{0.0, 0.1, true}, 4)
-            .number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
+                         NumberRange{0.0, 0.1, true}, 4);
+      add_walk_fields(f);
+      return f;
+    }();
+    return f;
+  }
+
+  // The walks after the tuning: the speed knobs and their schedule, the tolerance check, the gain margin.
+  static void add_walk_fields(OptionFields<GaitStageOptions>& f) {
+    f.number_list("speed_knobs", &GaitStageOptions::speed_knobs, "",
                          "more walks, each as long as the first, at these CPG speed knobs (times the trial's cadence), the controller "
                          "scheduled for each knob where the CPG holds controllers tuned at several; their motions go to "
                          "_gait_speed_<knob>.mot, their strides and falls to the summary's speed_knobs",
@@ -145,8 +152,7 @@ struct GaitStageOptions {
                     "without residuals: each walk (this one and the speed knobs') again with each feedback gain (reflex, trunk, foot "
                     "placement) scaled in turn by this and by its inverse, 16 walks, how many still walk in its summary's gain_margin "
                     "(0: none; e.g. 0.8: subject01's default knob-0.8 controller keeps none, docs/gait-tuning.md)",
-                    NumberRange{0.0, 0.999});
-    return f;
+                    NumberRange{0.0, 0.999});;
   }
 };
 
