@@ -152,7 +152,7 @@ struct GaitStageOptions {
                     "without residuals: each walk (this one and the speed knobs') again with each feedback gain (reflex, trunk, foot "
                     "placement) scaled in turn by this and by its inverse, 16 walks, how many still walk in its summary's gain_margin "
                     "(0: none; e.g. 0.8: subject01's default knob-0.8 controller keeps none, docs/gait-tuning.md)",
-                    NumberRange{0.0, 0.999});;
+                    NumberRange{0.0, 0.999});
   }
 };
 
