@@ -1171,10 +1171,10 @@ TEST(GaitTuning, RestartsBeginOnlyWithinTheSimulatedTimeBudget) {
 
 // The gain margin walks the controller again with each feedback gain scaled in turn by the factor
 // and by its inverse: 16 walks, named and scaled in order, each the walk reproduce_gait takes with that
-// one gain scaled. Without residuals the still walker sinks, a little more or less by its reflex'
-// gain: with the fall height set between the lowest pelvis of its walks at 0.8 and 1.25 times the
-// reflex's kp, the one that sinks lower falls and the other walks, as they do alone, to the bit. Kept from falling (no fall
-// height) all 16 walk their duration. A factor outside (0, 1) is refused.
+// one gain scaled. Kept from falling (no fall height), all 16 walk their duration. Without residuals
+// the still walker sinks, a little more or less by its reflex's gain: with the fall height set between
+// the lowest pelvis of its walks at 0.8 and 1.25 times the reflex's kp, the one that sinks lower falls
+// and the other walks, as each does alone, to the bit. A factor outside (0, 1) is refused.
 TEST(GainMargin, WalksAgainWithEachGainScaledInTurn) {
   const StillWalker w;
   ReproducedGaitOptions o = falling_walk();
