@@ -358,7 +358,6 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
       ->capture_default_str();
 }
 
-// gait: the reproduced gait, driven by a fitted CPG.
 // gait's trials of a walk: walk -> stand, a push, a ground step, and the gain margin.
 void add_gait_trial_options(CLI::App* gait, GaitArgs* g) {
   gait->add_option("--stop-at", g->options.stop_time_s,
@@ -395,6 +394,7 @@ void add_gait_trial_options(CLI::App* gait, GaitArgs* g) {
       ->capture_default_str();
 }
 
+// gait: the reproduced gait, driven by a fitted CPG.
 void add_gait_command(CLI::App& app) {
   auto* gait = app.add_subcommand(
       "gait",
