@@ -346,6 +346,12 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
                    "own stability, not one tolerance's integration error, e.g. 5e-4 2e-3 (default: --tolerance alone; with "
                    "linearly_implicit_euler, walks in ros34pw2 at these tolerances besides its own)")
       ->check(CLI::Range(1e-8, 0.1));
+  gait->add_flag("--tune-stance-hold", g->tuning.tune_stance_hold,
+                 "tuning: also search the stance-foot hold's gains, the stance hip moving its foot across the way against the "
+                 "pelvis' sideways offset and speed in single support");
+  gait->add_flag("--tune-swing-world", g->tuning.tune_swing_world,
+                 "tuning: also search the swing hip's world-frame share (SIMBICON's: the swing femur turned by the pelvis' orientation "
+                 "error, so the foot lands headed as the trial's), from 1 where the CPG has no controller");
   gait->add_flag("--tune-entrainment", g->tuning.tune_entrainment,
                  "tuning: also search the CPG's entrainment, the share of its phase error made up at each touchdown (see --entrainment)");
   gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,

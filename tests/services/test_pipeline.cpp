@@ -349,7 +349,8 @@ TEST(PipelineStages, AJobJsonFromBeforeTheStageTableRerunsToTheSameBytes) {
                                        {"gait", "control_interval_s"}, {"gait", "tune_entrainment"}, {"gait", "integrator"},
                                        {"gait", "tune_stop_at"}, {"gait", "tune_population"}, {"gait", "tune_restarts"}, {"gait", "tune_seed"},
                                        {"gait", "schedule_step_decay"}, {"gait", "tune_budget_simulated_s"},
-                                       {"gait", "tune_drift_weight"}, {"gait", "gain_margin"}}) {
+                                       {"gait", "tune_drift_weight"}, {"gait", "gain_margin"}, {"gait", "tune_swing_world"},
+                                       {"gait", "tune_stance_hold"}}) {
     EXPECT_EQ(written_doc[section][field], PipelineOptions().to_json()[section][field]) << section << "." << field;
     written_doc[section].erase(field);
   }

@@ -229,12 +229,15 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
   // A tuned controller, balance gains included, round-trips; a gain that is not a number is refused.
   named.controller = CpgController{250, 17, true, false, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25};
+  named.controller->stance_lateral_d = 0.4, named.controller->stance_lateral_v = -0.17;
   const CpgModel tuned = CpgModel::from_json(named.to_json(), "model.json");
   ASSERT_TRUE(tuned.controller.has_value());
   const CpgController& k = *tuned.controller;
   EXPECT_EQ(std::vector<double>({k.reflex_kp, k.reflex_kv, k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v,
                                  k.start_time_s, k.begin_time_s}),
             std::vector<double>({250, 17, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25}));
+  EXPECT_EQ(k.stance_lateral_d, 0.4);
+  EXPECT_EQ(k.stance_lateral_v, -0.17);
   bad = named.to_json();
   bad["controller"]["foot_placement"]["lateral_v_s"] = "fast";
   // Each mistyped member is refused by name.
@@ -251,6 +254,9 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   bad = named.to_json();
   bad["controller"]["foot_placement"] = 0.3;
   EXPECT_EQ(field_of(bad), "controller.foot_placement");
+  bad = named.to_json();
+  bad["controller"]["stance_hold"]["lateral_d"] = "wide";
+  EXPECT_EQ(field_of(bad), "controller.stance_hold.lateral_d");
   bad = named.to_json();
   bad["controller"]["simulation"]["integrator"] = 2;
   EXPECT_EQ(field_of(bad), "controller.simulation.integrator");
@@ -332,12 +338,14 @@ TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
   const CpgController fast{200, 20, true, false, 3.0, 3.0, 0.5, 0.2, 0.7, 0.1, 9.0, 9.0, 1.2, 2, 0.6};
   m.controller->entrainment = 0.2;
   m.speed_schedule = {{fast, 0.5}, {slow, 1.2}};  // any order
+  m.speed_schedule[1].controller.stance_lateral_d = 0.2;  // slow's
   const CpgModel at09 = scheduled_at_speed(m, 0.9);
   const CpgController& k = *at09.controller;
   EXPECT_NEAR(k.reflex_kp, 200, 1e-9);  // sqrt(400 x 100)
   EXPECT_NEAR(k.reflex_kv, 20, 1e-9);
   EXPECT_NEAR(k.trunk_kp, 3.0, 1e-12);
   EXPECT_NEAR(k.sagittal_v, -0.05, 1e-12);
+  EXPECT_NEAR(k.stance_lateral_d, 0.1, 1e-12);  // halfway from slow's 0.2 to the controller's 0
   EXPECT_NEAR(at09.amplitude, std::sqrt(1.2 * 0.6), 1e-12);
   EXPECT_EQ(k.start_time_s, 0.618);
   EXPECT_EQ(k.begin_time_s, 0.25);

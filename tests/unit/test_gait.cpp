@@ -209,6 +209,87 @@ TEST(SimbiconBalance, SwingHipTargetMovesTheFootByTheRaibertShift) {
   EXPECT_GT(shift.norm(), 0.5 * h);
 }
 
+// The swing hip in the world frame (SIMBICON's): its target change turns the swing femur in the
+// ground as the pelvis' correction would (to first order), so the foot lands headed as the
+// reference's whatever the pelvis' yaw, list and tilt; the stance hip gets none of it.
+TEST(SimbiconBalance, SwingHipInTheWorldFrameTurnsTheFemurByThePelvisError) {
+  BalanceCase c;
+  const int nq = c.m.num_coordinates();
+  SimbiconGains g;
+  g.swing_world = 1.0;
+  const double h = 1e-4;
+  const Eigen::Vector3d e_pelvis = h * Eigen::Vector3d(0.6, -0.5, 1.0);  // reference - state
+  Eigen::VectorXd e = Eigen::VectorXd::Zero(nq), ed = Eigen::VectorXd::Zero(nq);
+  simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, Eigen::VectorXd::Zero(nq), c.kin, e_pelvis, 2 * e_pelvis,
+                            Eigen::Vector3d::Zero(), c.right_stance(), 20.0, e, ed);
+  for (int k : c.legs.hip[0]) EXPECT_EQ(e[k], 0.0) << "the stance hip";
+  EXPECT_GT(e(c.legs.hip[1]).norm(), 0.5 * h);
+  EXPECT_NEAR((ed(c.legs.hip[1]) - 2 * e(c.legs.hip[1])).norm(), 0.0, 1e-12) << "the rate's error maps alike";
+  // The femur with the hip's change equals the femur under the corrected pelvis.
+  Eigen::VectorXd hip_moved = c.q, pelvis_moved = c.q;
+  for (int k : c.legs.hip[1]) hip_moved[k] += e[k];
+  for (int i = 0; i < 3; ++i) pelvis_moved[c.legs.pelvis_rotations[i]] += e_pelvis[i];
+  KinematicsWorkspace<double> a(c.m), b(c.m);
+  forward_kinematics(c.m, hip_moved.data(), a);
+  forward_kinematics(c.m, pelvis_moved.data(), b);
+  const int femur = c.m.body_index("femur_l");
+  const double apart = Eigen::AngleAxisd(a.body_in_ground[femur].rotation * b.body_in_ground[femur].rotation.transpose()).angle();
+  const double turned = Eigen::AngleAxisd(b.body_in_ground[femur].rotation * c.kin.body_in_ground[femur].rotation.transpose()).angle();
+  EXPECT_GT(turned, 0.5 * h);
+  EXPECT_LT(apart, 1e-3 * h) << "the swing femur " << apart << " rad from where the pelvis' correction turns it";
+}
+
+// The stance-foot hold: in single support the stance hip's target change moves the stance foot,
+// against the pelvis, across the way by s_d (d - d_ref) + s_v (v - v_ref) (to first order), so the
+// hip pushes the body back over the foot; the swing hip gets none of it, and in double support
+// neither hip does.
+TEST(SimbiconBalance, StanceHipHoldsThePelvisOverTheFootSideways) {
+  BalanceCase c;
+  const int nq = c.m.num_coordinates();
+  SimbiconGains g;
+  g.stance_lateral_d = 0.6;
+  g.stance_lateral_v = 0.2;
+  const double h = 1e-4;
+  // The state: the pelvis moving sideways; the reference pose: the stance hip adducted a little more,
+  // so the pelvis' offset from the stance foot differs across the way.
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(nq);
+  u[c.m.coordinate_index("pelvis_tz")] = h / g.stance_lateral_v;  // ground z
+  Eigen::VectorXd q_ref = c.q;
+  q_ref[c.m.coordinate_index("hip_adduction_r")] += 10 * h;
+  KinematicsWorkspace<double> ref_kin(c.m);
+  forward_kinematics(c.m, q_ref.data(), ref_kin);
+  const int pelvis = c.legs.pelvis_body;
+  const Eigen::Vector3d d_error = (c.kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, c.kin, 0)) -
+                                  (ref_kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, ref_kin, 0));
+  Eigen::VectorXd e = Eigen::VectorXd::Zero(nq), ed = Eigen::VectorXd::Zero(nq);
+  simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                            Eigen::Vector3d::Zero(), c.right_stance(), 20.0, e, ed);
+  for (int k : c.legs.hip[1]) EXPECT_EQ(e[k], 0.0) << "the swing hip";
+  EXPECT_EQ(e[c.m.coordinate_index("hip_rotation_r")], 0.0) << "the thigh's twist";
+  EXPECT_EQ(ed.norm(), 0.0);
+  Eigen::VectorXd moved = c.q;
+  for (int k : c.legs.hip[0]) moved[k] += e[k];
+  KinematicsWorkspace<double> after(c.m);
+  forward_kinematics(c.m, moved.data(), after);
+  const Eigen::Vector3d shift = mean_sphere_centre(c, after, 0) - mean_sphere_centre(c, c.kin, 0);
+  Eigen::Vector3d along = ref_kin.body_in_ground[pelvis].rotation.col(0);
+  along.y() = 0;
+  along.normalize();
+  const Eigen::Vector3d across = along.cross(Eigen::Vector3d::UnitY());
+  const double want = g.stance_lateral_d * d_error.dot(across) + g.stance_lateral_v * u[c.m.coordinate_index("pelvis_tz")] * across.z();
+  EXPECT_GT(std::abs(d_error.dot(across)), h);
+  EXPECT_NEAR(shift.dot(across), want, 1e-3 * h);
+  EXPECT_NEAR(shift.dot(along), 0.0, 1e-3 * h);
+  EXPECT_GT(std::abs(want), 0.5 * h);
+  // Both feet loaded: no hold.
+  std::vector<Eigen::Vector3d> both = c.right_stance();
+  for (int s : c.legs.spheres[1]) both[s] = Eigen::Vector3d(0, 400, 0);
+  e.setZero();
+  simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                            Eigen::Vector3d::Zero(), both, 20.0, e, ed);
+  EXPECT_EQ(e.norm(), 0.0);
+}
+
 namespace {
 
 Eigen::Vector3d lowest_point(const ContactSet& feet, const KinematicsWorkspace<double>& kin, int s) {
@@ -1192,6 +1273,13 @@ TEST(GainMargin, WalksAgainWithEachGainScaledInTurn) {
   }
   EXPECT_EQ(kept.still_walking, 16);
   EXPECT_EQ(kept.median_walked_s, o.duration_s);
+  // A gain the controller uses only where set (the swing hip's world share) is scaled where it is.
+  ReproducedGaitOptions world = o;
+  world.balance.swing_world = 0.5;
+  const GainMarginSummary more = gain_margin(w.m, w.cpg, w.reference, w.feet, world, m);
+  ASSERT_EQ(more.walks.size(), 18u);
+  EXPECT_EQ(more.walks[16].gain, "swing_world");
+  EXPECT_EQ(more.walks[17].scale, 1.25);
   // The lowest pelvis over the walk, a share of its start.
   const int ty = w.m.coordinate_index("pelvis_ty");
   auto lowest = [&](double kp_scale) {
@@ -1238,6 +1326,29 @@ TEST(GaitTuning, EntrainmentIsSearchedWhenAsked) {
   EXPECT_NE(searched, 0.5);
   EXPECT_GE(searched, 0.0);
   EXPECT_LE(searched, 1.0);
+}
+
+// The stance-foot hold's gains are searched only when asked; searched with the entrainment too, each
+// keeps its own place among the searched parameters.
+TEST(GaitTuning, StanceHoldIsSearchedWhenAsked) {
+  const QuickTuning q(8);
+  CpgModel cpg = q.w.cpg;
+  cpg.controller = CpgController{};
+  GaitTuningOptions t = q.t;
+  auto tuned = [&] { return *tune_gait_controller(q.w.m, cpg, q.w.reference, q.w.feet, q.o, t).cpg.controller; };
+  const CpgController kept = tuned();
+  EXPECT_EQ(kept.stance_lateral_d, 0.0);
+  EXPECT_EQ(kept.stance_lateral_v, 0.0);
+  t.tune_stance_hold = true;
+  const CpgController searched = tuned();
+  std::printf("[info] stance hold after 8 simulations: %.4f m/m, %.4f s\n", searched.stance_lateral_d, searched.stance_lateral_v);
+  EXPECT_NE(searched.stance_lateral_d, 0.0);
+  EXPECT_NE(searched.stance_lateral_v, 0.0);
+  EXPECT_EQ(searched.entrainment, 0.0);
+  t.tune_entrainment = true;
+  const CpgController both = tuned();
+  EXPECT_NE(both.stance_lateral_d, 0.0);
+  EXPECT_NE(both.entrainment, 0.0);
 }
 
 // Joints no muscle crosses (the walker's back) are held at the trial's mean as a locked joint would

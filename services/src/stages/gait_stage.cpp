@@ -31,6 +31,7 @@ struct GaitStageOptions {
   double tune_rotation_limit_deg = 4.5;
   double tune_drift_weight = 0;  // at 1, longer walkers past the horizon, subject01's run slower (docs/gait-tuning.md)
   bool tune_entrainment = false;
+  bool tune_swing_world = false, tune_stance_hold = false;
   int foot_spheres = 5;
   std::vector<double> tune_steps_m, tune_pushes_N_s, tune_tolerances;
   std::vector<double> tune_step_at = {0.5};
@@ -95,6 +96,12 @@ struct GaitStageOptions {
             .boolean("tune_entrainment", &GaitStageOptions::tune_entrainment,
                      "tuning: also search the CPG's entrainment by phase resetting, the share of its phase error made up at each "
                      "touchdown (0-1)")
+            .boolean("tune_swing_world", &GaitStageOptions::tune_swing_world,
+                     "tuning: also search the swing hip's world-frame share (SIMBICON's: the swing femur turned by the pelvis' "
+                     "orientation error, so the foot lands headed as the trial's), from 1 where the CPG has no controller")
+            .boolean("tune_stance_hold", &GaitStageOptions::tune_stance_hold,
+                     "tuning: also search the stance-foot hold, the single-support hip moving its foot across the way against the "
+                     "pelvis' sideways offset and speed")
             .number("tune_rotation_limit_deg", &GaitStageOptions::tune_rotation_limit_deg, "deg",
                     "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (RMS) costs as much as a fall (0: no bound)",
                     NumberRange{0.0, 90.0})
@@ -259,6 +266,8 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.drift_weight = o.tune_drift_weight;
   to.tune_entrainment = o.tune_entrainment;
+  to.tune_swing_world = o.tune_swing_world;
+  to.tune_stance_hold = o.tune_stance_hold;
   to.foot_spheres = o.foot_spheres;
   to.ground_steps_m = o.tune_steps_m;
   if (!o.tune_step_at.empty()) to.ground_step_at = o.tune_step_at;
@@ -287,7 +296,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
                            {"budget_simulated_s", o.tune_budget_simulated_s}, {"restarts_skipped", tuned.summary.restarts_skipped},
                            {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"drift_weight", to.drift_weight}, {"entrainment", o.tune_entrainment},
+                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"drift_weight", to.drift_weight}, {"entrainment", o.tune_entrainment}, {"swing_world", o.tune_swing_world}, {"stance_hold", o.tune_stance_hold},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   for (double knob : knobs) {

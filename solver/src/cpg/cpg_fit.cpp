@@ -605,6 +605,9 @@ CpgModel scheduled_at_speed(const CpgModel& cpg, double knob) {
   k.lateral_v = lin(a.controller.lateral_v, b.controller.lateral_v);
   k.sagittal_d = lin(a.controller.sagittal_d, b.controller.sagittal_d);
   k.sagittal_v = lin(a.controller.sagittal_v, b.controller.sagittal_v);
+  k.stance_lateral_d = lin(a.controller.stance_lateral_d, b.controller.stance_lateral_d);
+  k.stance_lateral_v = lin(a.controller.stance_lateral_v, b.controller.stance_lateral_v);
+  k.swing_world = lin(a.controller.swing_world, b.controller.swing_world);
   k.entrainment = lin(a.controller.entrainment, b.controller.entrainment);
   k.entrainment_phase_r = lin(a.controller.entrainment_phase_r, b.controller.entrainment_phase_r);
   k.entrainment_phase_l = lin(a.controller.entrainment_phase_l, b.controller.entrainment_phase_l);
@@ -624,8 +627,10 @@ nlohmann::json CpgController::to_json() const {
           {"foot_spheres", foot_spheres},
           {"trunk_kp", trunk_kp},
           {"trunk_kv", trunk_kv},
+          {"swing_world", swing_world},
           {"entrainment", {{"share", entrainment}, {"phase_r", entrainment_phase_r}, {"phase_l", entrainment_phase_l}}},
           {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}},
+          {"stance_hold", {{"lateral_d", stance_lateral_d}, {"lateral_v_s", stance_lateral_v}}},
           {"simulation", {{"control_interval_s", control_interval_s}, {"integrator", integrator}, {"tolerance", integrator_tolerance}}}};
 }
 
@@ -694,6 +699,7 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         fail(field + ".foot_spheres", "the feet it was tuned on: 2 or 5 spheres per foot, or 0 for a contact file");
       k.trunk_kp = field_or(c, "trunk_kp", k.trunk_kp, field);
       k.trunk_kv = field_or(c, "trunk_kv", k.trunk_kv, field);
+      k.swing_world = field_or(c, "swing_world", k.swing_world, field);
       if (c.contains("entrainment")) {
         const auto& e = c["entrainment"];
         if (!e.is_object()) fail(field + ".entrainment", "expected {\"share\", \"phase_r\", \"phase_l\"}");
@@ -711,6 +717,12 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         k.sagittal_d = field_or(fp, "sagittal_d", k.sagittal_d, field + ".foot_placement");
         k.sagittal_v = field_or(fp, "sagittal_v_s", k.sagittal_v, field + ".foot_placement");
       }
+      if (c.contains("stance_hold")) {
+        const auto& sh = c["stance_hold"];
+        if (!sh.is_object()) fail(field + ".stance_hold", "expected {\"lateral_d\", \"lateral_v_s\"}");
+        k.stance_lateral_d = field_or(sh, "lateral_d", k.stance_lateral_d, field + ".stance_hold");
+        k.stance_lateral_v = field_or(sh, "lateral_v_s", k.stance_lateral_v, field + ".stance_hold");
+      }
       if (c.contains("simulation")) {
         const auto& sim = c["simulation"];
         if (!sim.is_object()) fail(field + ".simulation", "expected {\"control_interval_s\", \"integrator\", \"tolerance\"}");
@@ -724,7 +736,7 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         if (!k.integrator.empty() && !w_method_named(k.integrator))
           fail(field + ".simulation.integrator", "\"ros34pw2\", \"rosenbrock\" or \"linearly_implicit_euler\" (empty: not recorded), not \"" + k.integrator + "\"");
       }
-      for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v})
+      for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v, k.stance_lateral_d, k.stance_lateral_v, k.swing_world})
         if (!std::isfinite(v)) fail(field, "balance gains must be finite numbers");
       if (!(k.reflex_kp >= 0) || !(k.reflex_kv >= 0)) fail(field + ".reflex_kp", "reflex gains must be non-negative");
       if (!(k.speed > 0)) fail(field + ".speed", "the speed knob it was tuned at must be positive");

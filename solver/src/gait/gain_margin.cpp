@@ -16,15 +16,20 @@ GainMarginSummary gain_margin(const Model& model, const CpgModel& cpg, const Sto
     const char* name;
     double ReproducedGaitOptions::* field = nullptr;
     double SimbiconGains::* balance = nullptr;
+    bool where_used = false;  // scaled only where the controller uses it (a zero scaled is the walk again)
   };
   const Gain gains[] = {{"reflex_kp", &ReproducedGaitOptions::reflex_kp},      {"reflex_kv", &ReproducedGaitOptions::reflex_kv},
                         {"trunk_kp", nullptr, &SimbiconGains::trunk_kp},       {"trunk_kv", nullptr, &SimbiconGains::trunk_kv},
                         {"lateral_d", nullptr, &SimbiconGains::lateral_d},     {"lateral_v", nullptr, &SimbiconGains::lateral_v},
-                        {"sagittal_d", nullptr, &SimbiconGains::sagittal_d},   {"sagittal_v", nullptr, &SimbiconGains::sagittal_v}};
+                        {"sagittal_d", nullptr, &SimbiconGains::sagittal_d},   {"sagittal_v", nullptr, &SimbiconGains::sagittal_v},
+                        {"swing_world", nullptr, &SimbiconGains::swing_world, true},
+                        {"stance_lateral_d", nullptr, &SimbiconGains::stance_lateral_d, true},
+                        {"stance_lateral_v", nullptr, &SimbiconGains::stance_lateral_v, true}};
   GainMarginSummary s;
   s.factor = margin.factor;
   std::vector<ReproducedGaitOptions> walks;
-  for (const Gain& g : gains)
+  for (const Gain& g : gains) {
+    if (g.where_used && options.balance.*g.balance == 0) continue;
     for (double scale : {margin.factor, 1.0 / margin.factor}) {
       ReproducedGaitOptions o = options;
       if (g.field) o.*g.field *= scale;
@@ -32,6 +37,7 @@ GainMarginSummary gain_margin(const Model& model, const CpgModel& cpg, const Sto
       walks.push_back(o);
       s.walks.push_back({g.name, scale});
     }
+  }
   std::atomic<std::size_t> next{0};
   std::exception_ptr failure;
   std::atomic<bool> failed{false};

@@ -88,37 +88,56 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
   const Eigen::Vector3d shift = along * (g.sagittal_d * d_error.dot(along) + g.sagittal_v * dv.dot(along)) +
                                 across * (g.lateral_d * d_error.dot(across) + g.lateral_v * dv.dot(across));
   const bool placement = g.lateral_d != 0 || g.lateral_v != 0 || g.sagittal_d != 0 || g.sagittal_v != 0;
+  const bool hold = g.stance_lateral_d != 0 || g.stance_lateral_v != 0;
+  // The hip's change that moves the side's foot by `shift` against the pelvis (horizontal), least
+  // squares. Not by the hip's turn about the (roughly vertical) thigh: with the knee bent it swings
+  // the foot sideways by twisting the leg.
+  auto move_foot = [&](int side, const Eigen::Vector3d& by) {
+    const auto& hip = legs.hip[side];
+    const Eigen::Index nh = static_cast<Eigen::Index>(hip.size());
+    const Eigen::Vector3d p = foot_point(contacts, legs.spheres[side], kin);
+    Eigen::Index twist = -1;
+    if (nh == 3) {
+      double most_vertical = -1;
+      for (Eigen::Index i = 0; i < nh; ++i) {
+        const Eigen::Vector3d w = S.columns.col(hip[i]).head<3>();
+        const double vertical = std::abs(w.y()) / std::max(1e-12, w.norm());
+        if (vertical > most_vertical) most_vertical = vertical, twist = i;
+      }
+    }
+    Eigen::Matrix2Xd Jf(2, nh);
+    for (Eigen::Index i = 0; i < nh; ++i) {
+      const Eigen::Vector3d col = i == twist ? Eigen::Vector3d::Zero() : point_velocity_column(S, hip[i], p);
+      Jf.col(i) = Eigen::Vector2d(col.x(), col.z());
+    }
+    const Eigen::VectorXd dh = Jf.completeOrthogonalDecomposition().solve(Eigen::Vector2d(by.x(), by.z()));
+    for (Eigen::Index i = 0; i < nh; ++i) e[hip[i]] += dh[i];
+  };
+  // The hip's change that turns the femur as a change dp of the pelvis' rotations would: Jh^+ Jp.
+  auto femur_map = [&](int side) -> Eigen::MatrixXd {
+    const auto& hip = legs.hip[side];
+    Eigen::Matrix3Xd Jh(3, static_cast<Eigen::Index>(hip.size()));
+    for (Eigen::Index i = 0; i < Jh.cols(); ++i) Jh.col(i) = S.columns.col(hip[i]).head<3>();
+    return Jh.completeOrthogonalDecomposition().solve(Jp);
+  };
   for (int side = 0; side < 2; ++side) {
     const auto& hip = legs.hip[side];
     const Eigen::Index nh = static_cast<Eigen::Index>(hip.size());
     if (stance[side]) {
+      if (hold && !stance[1 - side])
+        move_foot(side, across * (g.stance_lateral_d * d_error.dot(across) + g.stance_lateral_v * dv.dot(across)));
       if (g.trunk_kp == 0 && g.trunk_kv == 0) continue;
-      Eigen::Matrix3Xd Jh(3, nh);
-      for (Eigen::Index i = 0; i < nh; ++i) Jh.col(i) = S.columns.col(hip[i]).head<3>();
       // The femur held still: Jh dh + Jp dp = 0.
-      const Eigen::MatrixXd map = -Jh.completeOrthogonalDecomposition().solve(Jp);
+      const Eigen::MatrixXd map = -femur_map(side);
       const Eigen::VectorXd dh = map * (g.trunk_kp * e_pelvis), dhd = map * (g.trunk_kv * ed_pelvis);
       for (Eigen::Index i = 0; i < nh; ++i) e[hip[i]] += dh[i], ed[hip[i]] += dhd[i];
-    } else if (stance[1 - side] && placement) {
-      const Eigen::Vector3d p = foot_point(contacts, legs.spheres[side], kin);
-      // Not the hip's turn about the (roughly vertical) thigh: with the knee bent it swings the foot
-      // sideways by twisting the leg.
-      Eigen::Index twist = -1;
-      if (nh == 3) {
-        double most_vertical = -1;
-        for (Eigen::Index i = 0; i < nh; ++i) {
-          const Eigen::Vector3d w = S.columns.col(hip[i]).head<3>();
-          const double vertical = std::abs(w.y()) / std::max(1e-12, w.norm());
-          if (vertical > most_vertical) most_vertical = vertical, twist = i;
-        }
-      }
-      Eigen::Matrix2Xd Jf(2, nh);
-      for (Eigen::Index i = 0; i < nh; ++i) {
-        const Eigen::Vector3d col = i == twist ? Eigen::Vector3d::Zero() : point_velocity_column(S, hip[i], p);
-        Jf.col(i) = Eigen::Vector2d(col.x(), col.z());
-      }
-      const Eigen::VectorXd dh = Jf.completeOrthogonalDecomposition().solve(Eigen::Vector2d(shift.x(), shift.z()));
-      for (Eigen::Index i = 0; i < nh; ++i) e[hip[i]] += dh[i];
+    } else if (stance[1 - side]) {
+      if (placement) move_foot(side, shift);
+      if (g.swing_world == 0) continue;
+      // The femur turned as the pelvis' error: Jh dh = Jp dp.
+      const Eigen::MatrixXd map = g.swing_world * femur_map(side);
+      const Eigen::VectorXd dh = map * e_pelvis, dhd = map * ed_pelvis;
+      for (Eigen::Index i = 0; i < nh; ++i) e[hip[i]] += dh[i], ed[hip[i]] += dhd[i];
     }
   }
 }

@@ -18,10 +18,12 @@ namespace {
 // The searched parameters: log(kp / kp0), log(kv / kv0), the amplitude's factor 1 + 0.3 tanh(p2) (a
 // bounded change: the CPG's patterns are the trial's), then the balance gains (simbicon_balance.h) as
 // the start's plus these steps per unit: trunk shares 1, foot placement 0.3 m/m and 0.1 s; with
+// tune_stance_hold, the stance-foot hold's gains as the start's plus 0.3 m/m and 0.1 s per unit; with
+// tune_swing_world, the swing hip's world-frame share as the start's plus 1 per unit; with
 // tune_entrainment, the entrainment share as the start's plus 0.25 per unit, within [0, 1], and the
 // feet's heel-strike phases as the start's plus 0.05 per unit.
 constexpr double kAmplitudeRange = 0.3;
-constexpr int kParameters = 9, kEntrainmentParameters = 3;
+constexpr int kParameters = 9, kStanceHoldParameters = 2, kEntrainmentParameters = 3;
 const double kBalanceStep[6] = {1.0, 1.0, 0.3, 0.1, 0.3, 0.1};
 constexpr double kEntrainmentStep = 0.25, kHeelStrikePhaseStep = 0.05;
 
@@ -30,17 +32,25 @@ struct Candidate {
   double amplitude_factor;
 };
 
-Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const ReproducedGaitOptions& base) {
+// p: the kParameters, then where searched the stance hold's (hold), the swing hip's world share (world)
+// and the entrainment's.
+Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const ReproducedGaitOptions& base, bool hold, bool world) {
   Candidate k{start, 1.0 + kAmplitudeRange * std::tanh(p[2])};
   k.controller.reflex_kp = start.reflex_kp * std::exp(p[0]);
   k.controller.reflex_kv = start.reflex_kv * std::exp(p[1]);
   double* balance[6] = {&k.controller.trunk_kp, &k.controller.trunk_kv, &k.controller.lateral_d,
                         &k.controller.lateral_v, &k.controller.sagittal_d, &k.controller.sagittal_v};
   for (int i = 0; i < 6; ++i) *balance[i] += kBalanceStep[i] * p[3 + i];
-  if (p.size() == kParameters + kEntrainmentParameters) {
-    k.controller.entrainment = std::clamp(start.entrainment + kEntrainmentStep * p[kParameters], 0.0, 1.0);
-    k.controller.entrainment_phase_r = start.entrainment_phase_r + kHeelStrikePhaseStep * p[kParameters + 1];
-    k.controller.entrainment_phase_l = start.entrainment_phase_l + kHeelStrikePhaseStep * p[kParameters + 2];
+  Eigen::Index next = kParameters;
+  if (hold) {
+    k.controller.stance_lateral_d += kBalanceStep[2] * p[next++];
+    k.controller.stance_lateral_v += kBalanceStep[3] * p[next++];
+  }
+  if (world) k.controller.swing_world += kBalanceStep[0] * p[next++];
+  if (p.size() == next + kEntrainmentParameters) {
+    k.controller.entrainment = std::clamp(start.entrainment + kEntrainmentStep * p[next], 0.0, 1.0);
+    k.controller.entrainment_phase_r = start.entrainment_phase_r + kHeelStrikePhaseStep * p[next + 1];
+    k.controller.entrainment_phase_l = start.entrainment_phase_l + kHeelStrikePhaseStep * p[next + 2];
   }
   k.controller.phase_reference = true;
   k.controller.pelvis_residuals = false;
@@ -52,9 +62,12 @@ Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const Rep
 
 // Where a search begins for a CPG without a controller: the default reflex and balance gains of the
 // order the searches found on subject01 (trunk 2.2-3.2 / 2.8-3.6, foot placement across 0.3-0.7 m/m
-// and 0.1-0.3 s, along 0.7-0.8 m/m and about 0 s), each a few of the search's steps from zero.
-CpgController untuned_controller() {
+// and 0.1-0.3 s, along 0.7-0.8 m/m and about 0 s), each a few of the search's steps from zero; the
+// swing hip, where searched, in SIMBICON's world frame (share 1: from 0 the searches' walkers fell
+// sooner after their horizon, docs/gait-tuning.md).
+CpgController untuned_controller(const GaitTuningOptions& t) {
   CpgController k;
+  k.swing_world = t.tune_swing_world ? 1.0 : 0.0;
   k.trunk_kp = k.trunk_kv = 2.0;
   k.lateral_d = 0.3, k.lateral_v = 0.1;
   k.sagittal_d = 0.5, k.sagittal_v = 0.0;
@@ -114,7 +127,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   }
   const CpgModel start = scheduled_at_speed(cpg, knob);
   CpgModel working = start;  // the best so far: its controller and amplitude
-  working.controller = start.controller.value_or(untuned_controller());
+  working.controller = start.controller.value_or(untuned_controller(t));
   double horizon_s = t.horizon_s;
   // The lowest-cost candidate's walk in this round, kept as the candidates run: CMA-ES' best is one
   // of them, so its walk needs no second simulation.
@@ -250,7 +263,10 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     return cost;
   };
   GaitTuningResult result;
-  const int parameters = kParameters + (t.tune_entrainment ? kEntrainmentParameters : 0);
+  const int parameters = kParameters + (t.tune_stance_hold ? kStanceHoldParameters : 0) + (t.tune_swing_world ? 1 : 0) + (t.tune_entrainment ? kEntrainmentParameters : 0);
+  auto decode = [&](const Eigen::VectorXd& p, const CpgController& from, const ReproducedGaitOptions& b) {
+    return cpgait::decode(p, from, b, t.tune_stance_hold, t.tune_swing_world);
+  };
   const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(parameters);
   // The start, scored over the whole horizon for the summary.
   double start_stride_error = 0;
@@ -300,7 +316,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   // Over the whole horizon the start may still score better than the rounds' result.
   if (cost > result.summary.start_cost) {
     working = start;
-    working.controller = decode(x0, start.controller.value_or(untuned_controller()), base).controller;  // as it was scored
+    working.controller = decode(x0, start.controller.value_or(untuned_controller(t)), base).controller;  // as it was scored
     cost = result.summary.start_cost, walked = result.summary.start_walked_s;
   }
   result.summary.cost = cost;

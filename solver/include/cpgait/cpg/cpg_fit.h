@@ -52,6 +52,9 @@ struct CpgController {
   // recorded (CPG JSONs before 2026-11-29).
   double control_interval_s = 0, integrator_tolerance = 0;
   std::string integrator;
+  // The balance feedback's stance-foot hold across the way (m/m, s) and the swing hip's world-frame
+  // share (SimbiconGains; default 0: off).
+  double stance_lateral_d = 0, stance_lateral_v = 0, swing_world = 0;
 
   nlohmann::json to_json() const;  // the CPG JSON's "controller" (CpgModel::from_json reads it)
 };

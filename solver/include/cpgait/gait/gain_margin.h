@@ -1,9 +1,10 @@
 #pragma once
 // How far a walking controller stands from falling: its walk again with each feedback gain (the joint
-// reflex's kp and kv, the trunk's kp and kv, foot placement's d and v across and along the way) scaled
-// in turn by a factor and by its inverse, the others as they are. A controller whose changed walks
-// still last has margin. At subject01's knob 0.8 every tuned controller fell within 3-7 s when any one
-// gain moved by a fifth, where knob 1's kept some walks (measured: docs/gait-tuning.md).
+// reflex's kp and kv, the trunk's kp and kv, foot placement's d and v across and along the way; where
+// the controller uses them, the swing hip's world share and the stance hold's d and v) scaled in turn
+// by a factor and by its inverse, the others as they are. A controller whose changed walks still last
+// has margin. At subject01's knob 0.8 every tuned controller fell within 3-7 s when any one gain moved
+// by a fifth, where knob 1's kept some walks (measured: docs/gait-tuning.md).
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>

@@ -8,7 +8,12 @@
 //     c_d (d - d_ref) + c_v (v - v_ref)   (horizontal, ground frame; own gains along and across),
 //   d the pelvis' offset from the stance foot and v the pelvis' velocity, against the reference pose's
 //   offset and the reference's mean velocity: too fast forward or sideways, the foot lands further that
-//   way and brakes (Raibert's and SIMBICON's rule).
+//   way and brakes (Raibert's and SIMBICON's rule);
+// - stance-foot hold: in single support the stance hip's target moves that foot, against the pelvis,
+//   across the way by s_d (d - d_ref) + s_v (v - v_ref): the body drifting outward over the foot, the
+//   hip abducts and pushes it back (a hip strategy in the frontal plane);
+// - swing hip in the world frame (SIMBICON's): the swing femur turned by a share of the pelvis'
+//   orientation error, so the foot lands headed as the reference's whatever the pelvis' yaw.
 // Legs are found by name: the joints from the root's body to a child named *_r / *_l (hips), and the
 // contact spheres named *_r / *_l (feet); a model without them gets no balance feedback.
 #include <Eigen/Core>
@@ -28,7 +33,16 @@ struct SimbiconGains {
   // stride while across it drifts: on subject01 the same gains both ways fell sooner than none.
   double lateral_d = 0, lateral_v = 0;
   double sagittal_d = 0, sagittal_v = 0;
-  bool any() const { return trunk_kp != 0 || trunk_kv != 0 || lateral_d != 0 || lateral_v != 0 || sagittal_d != 0 || sagittal_v != 0; }
+  // The stance-foot hold's s_d (m/m) and s_v (s), across the way (default 0: off).
+  double stance_lateral_d = 0, stance_lateral_v = 0;
+  // The swing hip's target in the world frame, SIMBICON's: this share (default 0: the pelvis' frame)
+  // of the pelvis' orientation error (and its rate's) turns the swing femur too, so the foot lands
+  // headed as the reference's, whatever the pelvis' yaw.
+  double swing_world = 0;
+  bool any() const {
+    return trunk_kp != 0 || trunk_kv != 0 || lateral_d != 0 || lateral_v != 0 || sagittal_d != 0 || sagittal_v != 0 ||
+           stance_lateral_d != 0 || stance_lateral_v != 0 || swing_world != 0;
+  }
 };
 
 struct SimbiconLegs {

@@ -83,6 +83,10 @@ struct GaitTuningOptions {
   // up at each touchdown, from the start's, 0.25 per unit step, within [0, 1]; and the feet's
   // heel-strike phases it entrains to, 0.05 per unit) (default false: kept).
   bool tune_entrainment = false;
+  // Also search the stance-foot hold's gains (simbicon_balance.h), from the start's (default false: kept).
+  bool tune_stance_hold = false;
+  // Also search the swing hip's world-frame share (SimbiconGains::swing_world), from the start's (default false: kept).
+  bool tune_swing_world = false;
   // The feet the walks stand on (`contacts`), recorded in the result's controller (CpgController::
   // foot_spheres): default_foot_contacts' spheres per foot, 0 for a contact file's (default 2). A
   // speed knob's entry is tuned on the controller's feet only (else std::invalid_argument).
