@@ -131,6 +131,30 @@ Eigen::Vector3d mean_sphere_centre(const BalanceCase& c, const KinematicsWorkspa
   return p / static_cast<double>(c.legs.spheres[side].size());
 }
 
+// The pelvis' offset from the right (stance) foot against the reference pose's.
+Eigen::Vector3d right_offset_error(const BalanceCase& c, const KinematicsWorkspace<double>& ref_kin) {
+  const int pelvis = c.legs.pelvis_body;
+  return (c.kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, c.kin, 0)) -
+         (ref_kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, ref_kin, 0));
+}
+
+// How far a side's foot moves when its hip's coordinates change by e's.
+Eigen::Vector3d foot_moved_by_hip(const BalanceCase& c, const Eigen::VectorXd& e, int side) {
+  Eigen::VectorXd moved = c.q;
+  for (int k : c.legs.hip[side]) moved[k] += e[k];
+  KinematicsWorkspace<double> after(c.m);
+  forward_kinematics(c.m, moved.data(), after);
+  return mean_sphere_centre(c, after, side) - mean_sphere_centre(c, c.kin, side);
+}
+
+// The reference pelvis' heading: its x axis, horizontal (pelvis_rotation turns it about y); and across it.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> heading_axes(const BalanceCase& c, const KinematicsWorkspace<double>& ref_kin) {
+  Eigen::Vector3d along = ref_kin.body_in_ground[c.legs.pelvis_body].rotation.col(0);
+  along.y() = 0;
+  along.normalize();
+  return {along, along.cross(Eigen::Vector3d::UnitY())};
+}
+
 }  // namespace
 
 // Trunk balance: the stance hip's target change, made together with the pelvis' correction, leaves the
@@ -184,24 +208,14 @@ TEST(SimbiconBalance, SwingHipTargetMovesTheFootByTheRaibertShift) {
   q_ref[c.m.coordinate_index("hip_flexion_r")] += h;
   KinematicsWorkspace<double> ref_kin(c.m);
   forward_kinematics(c.m, q_ref.data(), ref_kin);
-  const int pelvis = c.legs.pelvis_body;
-  const Eigen::Vector3d d_error = (c.kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, c.kin, 0)) -
-                                  (ref_kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, ref_kin, 0));
+  const Eigen::Vector3d d_error = right_offset_error(c, ref_kin);
   Eigen::VectorXd e = Eigen::VectorXd::Zero(nq), ed = Eigen::VectorXd::Zero(nq);
   simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
                             Eigen::Vector3d::Zero(), c.right_stance(), 20.0, e, ed);
   for (int k : c.legs.hip[0]) EXPECT_EQ(e[k], 0.0) << "the stance hip";
   EXPECT_EQ(e[c.m.coordinate_index("hip_rotation_l")], 0.0) << "the thigh's twist";
-  Eigen::VectorXd moved = c.q;
-  for (int k : c.legs.hip[1]) moved[k] += e[k];
-  KinematicsWorkspace<double> after(c.m);
-  forward_kinematics(c.m, moved.data(), after);
-  const Eigen::Vector3d shift = mean_sphere_centre(c, after, 1) - mean_sphere_centre(c, c.kin, 1);
-  // The reference pelvis' heading: its x axis, horizontal (pelvis_rotation turns it about y).
-  Eigen::Vector3d along = ref_kin.body_in_ground[c.legs.pelvis_body].rotation.col(0);
-  along.y() = 0;
-  along.normalize();
-  const Eigen::Vector3d across = along.cross(Eigen::Vector3d::UnitY());
+  const Eigen::Vector3d shift = foot_moved_by_hip(c, e, 1);
+  const auto [along, across] = heading_axes(c, ref_kin);
   const Eigen::Vector3d want = along * (g.sagittal_d * d_error.dot(along)) + across * (g.lateral_v * u[c.m.coordinate_index("pelvis_tz")] * across.z());
   EXPECT_GT(std::abs(d_error.dot(along)), 0.1 * h);
   EXPECT_NEAR(shift.x(), want.x(), 1e-3 * h);
@@ -258,24 +272,15 @@ TEST(SimbiconBalance, StanceHipHoldsThePelvisOverTheFootSideways) {
   q_ref[c.m.coordinate_index("hip_adduction_r")] += 10 * h;
   KinematicsWorkspace<double> ref_kin(c.m);
   forward_kinematics(c.m, q_ref.data(), ref_kin);
-  const int pelvis = c.legs.pelvis_body;
-  const Eigen::Vector3d d_error = (c.kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, c.kin, 0)) -
-                                  (ref_kin.body_in_ground[pelvis].translation_m - mean_sphere_centre(c, ref_kin, 0));
+  const Eigen::Vector3d d_error = right_offset_error(c, ref_kin);
   Eigen::VectorXd e = Eigen::VectorXd::Zero(nq), ed = Eigen::VectorXd::Zero(nq);
   simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
                             Eigen::Vector3d::Zero(), c.right_stance(), 20.0, e, ed);
   for (int k : c.legs.hip[1]) EXPECT_EQ(e[k], 0.0) << "the swing hip";
   EXPECT_EQ(e[c.m.coordinate_index("hip_rotation_r")], 0.0) << "the thigh's twist";
   EXPECT_EQ(ed.norm(), 0.0);
-  Eigen::VectorXd moved = c.q;
-  for (int k : c.legs.hip[0]) moved[k] += e[k];
-  KinematicsWorkspace<double> after(c.m);
-  forward_kinematics(c.m, moved.data(), after);
-  const Eigen::Vector3d shift = mean_sphere_centre(c, after, 0) - mean_sphere_centre(c, c.kin, 0);
-  Eigen::Vector3d along = ref_kin.body_in_ground[pelvis].rotation.col(0);
-  along.y() = 0;
-  along.normalize();
-  const Eigen::Vector3d across = along.cross(Eigen::Vector3d::UnitY());
+  const Eigen::Vector3d shift = foot_moved_by_hip(c, e, 0);
+  const auto [along, across] = heading_axes(c, ref_kin);
   const double want = g.stance_lateral_d * d_error.dot(across) + g.stance_lateral_v * u[c.m.coordinate_index("pelvis_tz")] * across.z();
   EXPECT_GT(std::abs(d_error.dot(across)), h);
   EXPECT_NEAR(shift.dot(across), want, 1e-3 * h);
