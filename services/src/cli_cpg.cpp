@@ -357,6 +357,9 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
   gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,
                    "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (deg RMS) costs as much as a fall")
       ->check(CLI::Range(0.0, 90.0));
+  gait->add_option("--tune-cycle-weight", g->tuning.cycle_change_weight,
+                   "tuning: cost per rad of a walk's cycle change, the RMS over its angles of its last cycle against the one before")
+      ->check(CLI::Range(0.0, 1000.0));
   gait->add_option("--tune-drift-weight", g->tuning.drift_weight,
                    "tuning: cost per rad of a walk's drift, how far its cycle-mean walking direction and pelvis yaw moved from "
                    "its middle cycle to its last (walkers that drift within the horizon fall soon after it)")

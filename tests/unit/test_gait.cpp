@@ -642,6 +642,20 @@ TEST(WalkMeasures, ContactPhasesShareTheStrideOutBySide) {
 
 // The support polygon: a foot's four corners in any order; inside, on an edge, outside; three points
 // in a line and two points have no inside.
+// The cycle change: a periodic angle repeats its last cycle (0), a ramp of 0.1 rad/s differs by 0.1
+// rad over a 1 s cycle; the RMS is over the angles given, and a walk shorter than two cycles has none.
+TEST(WalkMeasures, CycleChangeIsTheLastCycleAgainstTheOneBefore) {
+  std::vector<double> t;
+  for (int i = 0; i <= 400; ++i) t.push_back(0.01 * i);
+  Eigen::MatrixXd q(401, 3);
+  for (int i = 0; i <= 400; ++i) q.row(i) << std::sin(2 * M_PI * t[i]), 0.1 * t[i], 5.0 * t[i] * t[i];
+  EXPECT_LT(walk_cycle_change_rad(t, q, {0}, 1.0), 1e-12);
+  EXPECT_NEAR(walk_cycle_change_rad(t, q, {1}, 1.0), 0.1, 1e-12);
+  EXPECT_NEAR(walk_cycle_change_rad(t, q, {0, 1}, 1.0), 0.1 / std::sqrt(2.0), 1e-12);
+  EXPECT_GT(walk_cycle_change_rad(t, q, {2}, 1.0), 1.0) << "column 2 is not among the angles unless given";
+  EXPECT_EQ(walk_cycle_change_rad(t, q, {0, 1}, 2.5), 0.0);
+}
+
 TEST(WalkMeasures, ConvexHullHoldsWhatLiesInsideOrOnItsEdge) {
   const std::vector<Eigen::Vector2d> foot = {{0.2, 0.1}, {0.0, 0.0}, {0.2, 0.0}, {0.0, 0.1}, {0.1, 0.05}};
   EXPECT_TRUE(inside_convex_hull(foot, {0.1, 0.02}));
@@ -941,6 +955,21 @@ TEST(GaitTuning, DriftEntersTheCostByItsWeight) {
   EXPECT_GT(with_once, none + 1e-6);
   EXPECT_NEAR(q.tune(twice).summary.start_cost - none, 2 * (with_once - none), 1e-12);
   std::printf("[info] the still walker's drift over %.2f s: %.3g rad\n", q.t.horizon_s, with_once - none);
+}
+
+// The cycle change enters the cost in proportion to its weight, and is the walk's measure (the still
+// walker's start over two of its cycles, which it does not repeat while it sags).
+TEST(GaitTuning, CycleChangeEntersTheCostByItsWeight) {
+  QuickTuning q(2);
+  q.t.horizon_s = 2.2 * q.w.cpg.cycle_s;
+  q.o.fall_height_fraction = -1e9;
+  GaitTuningOptions once = q.t, twice = q.t;
+  once.cycle_change_weight = 1;
+  twice.cycle_change_weight = 2;
+  const double none = q.tune(q.t).summary.start_cost, with_once = q.tune(once).summary.start_cost;
+  EXPECT_GT(with_once, none + 1e-6);
+  EXPECT_NEAR(q.tune(twice).summary.start_cost - none, 2 * (with_once - none), 1e-12);
+  std::printf("[info] the still walker's cycle change over %.2f s: %.3g rad\n", q.t.horizon_s, with_once - none);
 }
 
 // A walk -> stand trial counts its fall alone: the still walker, which stands through 0.3 s, adds

@@ -30,6 +30,7 @@ struct GaitStageOptions {
   int tune_seed = 1;
   double tune_rotation_limit_deg = 4.5;
   double tune_drift_weight = 0;  // at 1, longer walkers past the horizon, subject01's run slower (docs/gait-tuning.md)
+  double tune_cycle_weight = 0;
   bool tune_entrainment = false;
   bool tune_swing_world = false, tune_stance_hold = false;
   int foot_spheres = 5;
@@ -108,6 +109,9 @@ struct GaitStageOptions {
             .number("tune_drift_weight", &GaitStageOptions::tune_drift_weight, "1/rad",
                     "tuning: cost per rad of a walk's drift (its cycle-mean direction and pelvis yaw, middle cycle to last): walkers "
                     "that drift within the horizon fall soon after it (0: not counted; docs/gait-tuning.md)", NumberRange{0.0, 100.0})
+            .number("tune_cycle_weight", &GaitStageOptions::tune_cycle_weight, "1/rad",
+                    "tuning: cost per rad of a walk's cycle change, the RMS over its angles of its last cycle against the one "
+                    "before: a walk on a stable limit cycle repeats itself (0: not counted; docs/gait-tuning.md)", NumberRange{0.0, 1000.0})
             .number_list("tune_steps_m", &GaitStageOptions::tune_steps_m, "m",
                          "tuning: ground steps (negative: down) each candidate also walks over, the edge under the pelvis at each of "
                          "tune_step_at; their walks count in the cost as the level one's does",
@@ -265,6 +269,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.seed = static_cast<unsigned long long>(o.tune_seed);
   to.worst_rotation_limit_deg = o.tune_rotation_limit_deg;
   to.drift_weight = o.tune_drift_weight;
+  to.cycle_change_weight = o.tune_cycle_weight;
   to.tune_entrainment = o.tune_entrainment;
   to.tune_swing_world = o.tune_swing_world;
   to.tune_stance_hold = o.tune_stance_hold;
@@ -296,7 +301,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
                            {"budget_simulated_s", o.tune_budget_simulated_s}, {"restarts_skipped", tuned.summary.restarts_skipped},
                            {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"drift_weight", to.drift_weight}, {"entrainment", o.tune_entrainment}, {"swing_world", o.tune_swing_world}, {"stance_hold", o.tune_stance_hold},
+                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"drift_weight", to.drift_weight}, {"cycle_weight", to.cycle_change_weight}, {"entrainment", o.tune_entrainment}, {"swing_world", o.tune_swing_world}, {"stance_hold", o.tune_stance_hold},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   for (double knob : knobs) {

@@ -676,6 +676,7 @@ nlohmann::json reproduced_gait_metrics(const Model& model, const ReproducedGaitR
   j["speed_m_s"] = r.speed_m_s;
   j["distance_m"] = r.distance_m;
   j["drift_rad"] = r.drift_rad;
+  j["cycle_change_rad"] = r.cycle_change_rad;
   j["contact_phases"] = reproduced_gait_contact_phases(r);
   if (r.entrainment.share > 0)
     j["entrainment"] = {{"share", r.entrainment.share}, {"phase_r", r.entrainment.phase_r}, {"phase_l", r.entrainment.phase_l}, {"resets", r.entrainment_resets}};

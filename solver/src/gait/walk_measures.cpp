@@ -120,8 +120,13 @@ void measure_walk(const Model& model, const WalkRecord& w, ReproducedGaitResult&
     r.speed_m_s = r.stride_length_m / r.stride_time_s;
   }
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
-  if (r.frozen_at_s < 0)  // a walk that stopped has no direction to keep, and its belt slowed
+  if (r.frozen_at_s < 0) {  // a walk that stopped has no direction to keep, and its belt slowed
     r.drift_rad = walk_drift_rad(r.time_s, r.q, model.coordinate_index("pelvis_rotation"), tx, tz, belt, w.cycle_s / w.speed);
+    std::vector<int> angles;
+    for (int c = 0; c < model.num_coordinates(); ++c)
+      if (model.coordinates[c].is_angle()) angles.push_back(c);
+    r.cycle_change_rad = walk_cycle_change_rad(r.time_s, r.q, angles, w.cycle_s / w.speed);
+  }
   if (hs.size() >= 2) {
     const ContactPhases p = contact_phases(r.time_s, load[0], load[1], hs.front(), hs.back());
     r.stance_percent_r = p.stance_percent[0], r.stance_percent_l = p.stance_percent[1], r.double_support_percent = p.double_support_percent;
@@ -158,6 +163,18 @@ void measure_walk(const Model& model, const WalkRecord& w, ReproducedGaitResult&
     r.mean_residual_force_percent_bw = 100 * force / ns / (model.total_mass_kg() * model.gravity_m_s2.norm());
     r.mean_residual_moment_Nm = moment / ns;
   }
+}
+
+double walk_cycle_change_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, const std::vector<int>& angles, double cycle_s) {
+  const Eigen::Index ns = static_cast<Eigen::Index>(time_s.size());
+  if (ns < 3 || angles.empty() || !(cycle_s > 0)) return 0;
+  const double dt = (time_s.back() - time_s.front()) / static_cast<double>(ns - 1);
+  const Eigen::Index lag = static_cast<Eigen::Index>(std::lround(cycle_s / dt));
+  if (lag < 1 || 2 * lag >= ns) return 0;
+  double sum = 0;
+  for (Eigen::Index i = ns - lag; i < ns; ++i)
+    for (int c : angles) sum += (q(i, c) - q(i - lag, c)) * (q(i, c) - q(i - lag, c));
+  return std::sqrt(sum / static_cast<double>(lag * static_cast<Eigen::Index>(angles.size())));
 }
 
 double walk_drift_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, int yaw, int tx, int tz, const Eigen::Vector2d& belt_xz_m_s,

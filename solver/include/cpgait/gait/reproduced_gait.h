@@ -171,6 +171,10 @@ struct ReproducedGaitResult {
   // yaw without pelvis_rotation). A walk settled on its limit cycle keeps both, straight or not;
   // subject01's tuned walkers that drifted fell soon after (docs/gait-tuning.md).
   double drift_rad = 0;
+  // How far the walk's last cycle is from the one before: the RMS over its angles of q(t) - q(t -
+  // cycle / speed) (rad; 0 for a walk shorter than two cycles or one that stopped). A walk on a stable
+  // limit cycle repeats itself; one on its way to a fall does not.
+  double cycle_change_rad = 0;
   // The CPG's entrainment (ReproducedGaitOptions::entrainment), and the touchdowns that reset its phase.
   PhaseResettingOptions entrainment;
   int entrainment_resets = 0;

@@ -38,6 +38,8 @@ struct GaitTuningOptions {
   // cost per rad of the walk's drift (ReproducedGaitResult::drift_rad) (default 0): the other terms
   // see only the horizon, and walkers that drift within it fall soon after it (docs/gait-tuning.md).
   double drift_weight = 0.0;
+  // cost per rad of the walk's cycle change (ReproducedGaitResult::cycle_change_rad) (default 0).
+  double cycle_change_weight = 0.0;
   // A bound on the worst rotation's tracking RMS (deg; 0: none, the default): beyond it a walk costs
   // fall_weight per bound's worth of excess, as much as falling at once. Tuned over ground steps
   // without it, subject01's hip_rotation_l drifted to 6.1 deg (measured).
