@@ -7,7 +7,7 @@
 // tolerance; walk -> stand trials, scored by their falls alone), each scored by
 //   (horizon - time walked) / horizon * fall_weight + tracking_weight * (mean + worst rotation RMS, rad)
 //   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|
-//   + drift_weight * drift (rad)
+//   + drift_weight * drift (rad) + cycle_change_weight * cycle change (rad)
 //   (+ fall_weight * the worst rotation's excess over a bound, relative to it, when one is set)
 // and the candidate by their mean: the falls first, then the deviation from the trial's cycle, then
 // effort. The simulations run in parallel; the starting controller (the CPG's, else the defaults) is
