@@ -147,6 +147,25 @@ Eigen::Vector3d foot_moved_by_hip(const BalanceCase& c, const Eigen::VectorXd& e
   return mean_sphere_centre(c, after, side) - mean_sphere_centre(c, c.kin, side);
 }
 
+// The reference pose: the walker's with one coordinate moved by dq.
+KinematicsWorkspace<double> reference_moved(const BalanceCase& c, const char* coordinate, double dq) {
+  Eigen::VectorXd q_ref = c.q;
+  q_ref[c.m.coordinate_index(coordinate)] += dq;
+  KinematicsWorkspace<double> ref_kin(c.m);
+  forward_kinematics(c.m, q_ref.data(), ref_kin);
+  return ref_kin;
+}
+
+// The balance feedback's joint errors (e, ed from zero) for speeds u against ref_kin, no pelvis
+// orientation error, under these contact forces.
+void placement_errors(const BalanceCase& c, const SimbiconGains& g, const Eigen::VectorXd& u, const KinematicsWorkspace<double>& ref_kin,
+                      const std::vector<Eigen::Vector3d>& forces, Eigen::VectorXd& e, Eigen::VectorXd& ed) {
+  e = Eigen::VectorXd::Zero(c.m.num_coordinates());
+  ed = Eigen::VectorXd::Zero(c.m.num_coordinates());
+  simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                            Eigen::Vector3d::Zero(), forces, 20.0, e, ed);
+}
+
 // The reference pelvis' heading: its x axis, horizontal (pelvis_rotation turns it about y); and across it.
 std::pair<Eigen::Vector3d, Eigen::Vector3d> heading_axes(const BalanceCase& c, const KinematicsWorkspace<double>& ref_kin) {
   Eigen::Vector3d along = ref_kin.body_in_ground[c.legs.pelvis_body].rotation.col(0);
@@ -204,14 +223,10 @@ TEST(SimbiconBalance, SwingHipTargetMovesTheFootByTheRaibertShift) {
   // hip flexed a little more, so the pelvis' offset from the stance foot differs.
   Eigen::VectorXd u = Eigen::VectorXd::Zero(nq);
   u[c.m.coordinate_index("pelvis_tz")] = h / g.lateral_v;  // ground z
-  Eigen::VectorXd q_ref = c.q;
-  q_ref[c.m.coordinate_index("hip_flexion_r")] += h;
-  KinematicsWorkspace<double> ref_kin(c.m);
-  forward_kinematics(c.m, q_ref.data(), ref_kin);
+  const KinematicsWorkspace<double> ref_kin = reference_moved(c, "hip_flexion_r", h);
   const Eigen::Vector3d d_error = right_offset_error(c, ref_kin);
-  Eigen::VectorXd e = Eigen::VectorXd::Zero(nq), ed = Eigen::VectorXd::Zero(nq);
-  simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
-                            Eigen::Vector3d::Zero(), c.right_stance(), 20.0, e, ed);
+  Eigen::VectorXd e, ed;
+  placement_errors(c, g, u, ref_kin, c.right_stance(), e, ed);
   for (int k : c.legs.hip[0]) EXPECT_EQ(e[k], 0.0) << "the stance hip";
   EXPECT_EQ(e[c.m.coordinate_index("hip_rotation_l")], 0.0) << "the thigh's twist";
   const Eigen::Vector3d shift = foot_moved_by_hip(c, e, 1);
@@ -268,14 +283,10 @@ TEST(SimbiconBalance, StanceHipHoldsThePelvisOverTheFootSideways) {
   // so the pelvis' offset from the stance foot differs across the way.
   Eigen::VectorXd u = Eigen::VectorXd::Zero(nq);
   u[c.m.coordinate_index("pelvis_tz")] = h / g.stance_lateral_v;  // ground z
-  Eigen::VectorXd q_ref = c.q;
-  q_ref[c.m.coordinate_index("hip_adduction_r")] += 10 * h;
-  KinematicsWorkspace<double> ref_kin(c.m);
-  forward_kinematics(c.m, q_ref.data(), ref_kin);
+  const KinematicsWorkspace<double> ref_kin = reference_moved(c, "hip_adduction_r", 10 * h);
   const Eigen::Vector3d d_error = right_offset_error(c, ref_kin);
-  Eigen::VectorXd e = Eigen::VectorXd::Zero(nq), ed = Eigen::VectorXd::Zero(nq);
-  simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
-                            Eigen::Vector3d::Zero(), c.right_stance(), 20.0, e, ed);
+  Eigen::VectorXd e, ed;
+  placement_errors(c, g, u, ref_kin, c.right_stance(), e, ed);
   for (int k : c.legs.hip[1]) EXPECT_EQ(e[k], 0.0) << "the swing hip";
   EXPECT_EQ(e[c.m.coordinate_index("hip_rotation_r")], 0.0) << "the thigh's twist";
   EXPECT_EQ(ed.norm(), 0.0);
@@ -289,9 +300,7 @@ TEST(SimbiconBalance, StanceHipHoldsThePelvisOverTheFootSideways) {
   // Both feet loaded: no hold.
   std::vector<Eigen::Vector3d> both = c.right_stance();
   for (int s : c.legs.spheres[1]) both[s] = Eigen::Vector3d(0, 400, 0);
-  e.setZero();
-  simbicon_balance_feedback(c.feet, c.legs, g, c.kin, c.S, u, ref_kin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
-                            Eigen::Vector3d::Zero(), both, 20.0, e, ed);
+  placement_errors(c, g, u, ref_kin, both, e, ed);
   EXPECT_EQ(e.norm(), 0.0);
 }
 
