@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <string>
 #include <unistd.h>
+#include <vector>
 
 #include "cpgait/capture/storage.h"
 #include "cpgait/model/model.h"
@@ -43,7 +44,6 @@ inline const Model& walker() {
   return m;
 }
 
-// A fresh, empty folder under the system temp directory, unique to this process.
 // A pennate muscle's geometry and strength for the muscle models' unit tests; the caller adds its
 // model's curves or parameters.
 inline Muscle pennate_muscle(double max_isometric_force_N, double optimal_fiber_length_m, double tendon_slack_length_m,
@@ -57,11 +57,29 @@ inline Muscle pennate_muscle(double max_isometric_force_N, double optimal_fiber_
   return m;
 }
 
+// The temp folders this process made: removed when it exits with every test passed, kept (and
+// named) otherwise so that a failure's files can be read. Without it every run left its folders.
+struct TempDirs {
+  std::vector<std::filesystem::path> made;
+  ~TempDirs() {
+    const ::testing::UnitTest* u = ::testing::UnitTest::GetInstance();
+    if (u->Passed()) {
+      std::error_code ec;
+      for (const auto& d : made) std::filesystem::remove_all(d, ec);
+    } else {
+      for (const auto& d : made) std::fprintf(stderr, "[ info ] kept %s\n", d.string().c_str());
+    }
+  }
+};
+
+// A fresh, empty folder under the system temp directory, unique to this process.
 inline std::string temp_dir(const std::string& name) {
+  static TempDirs dirs;
   const std::filesystem::path d =
       std::filesystem::temp_directory_path() / ("cpgait_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
+  if (std::find(dirs.made.begin(), dirs.made.end(), d) == dirs.made.end()) dirs.made.push_back(d);
   return d.string();
 }
 

@@ -975,10 +975,30 @@ TEST(GaitTuning, CycleChangeEntersTheCostByItsWeight) {
   GaitTuningOptions once = q.t, twice = q.t;
   once.cycle_change_weight = 1;
   twice.cycle_change_weight = 2;
+  once.cycle_change_limit_rad = twice.cycle_change_limit_rad = 1e9;
   const double none = q.tune(q.t).summary.start_cost, with_once = q.tune(once).summary.start_cost;
   EXPECT_GT(with_once, none + 1e-6);
   EXPECT_NEAR(q.tune(twice).summary.start_cost - none, 2 * (with_once - none), 1e-12);
   std::printf("[info] the still walker's cycle change over %.2f s: %.3g rad\n", q.t.horizon_s, with_once - none);
+  // Counted up to its limit.
+  GaitTuningOptions limited = once;
+  limited.cycle_change_limit_rad = 0.5 * (with_once - none);
+  EXPECT_NEAR(q.tune(limited).summary.start_cost - none, limited.cycle_change_limit_rad, 1e-12);
+}
+
+// A walk that falls counts the cycle change's limit, whatever its last cycle did: the still walker,
+// sagging until it falls within the horizon, costs the limit times the weight more, so that a late fall
+// is never dearer than an early one by its last cycle (before, at weight 50, knob 0.8's search ended at
+// a walker falling at 2.11 s, under two cycles, where its start walked 2.19 s).
+TEST(GaitTuning, AFallCountsTheCycleChangesLimit) {
+  QuickTuning q(2);
+  q.t.horizon_s = 2.2 * q.w.cpg.cycle_s;
+  GaitTuningOptions with = q.t;
+  with.cycle_change_weight = 3;
+  with.cycle_change_limit_rad = 0.2;
+  const GaitTuningResult none = q.tune(q.t);
+  ASSERT_LT(none.summary.start_walked_s, q.t.horizon_s) << "the still walker falls within the horizon";
+  EXPECT_NEAR(q.tune(with).summary.start_cost - none.summary.start_cost, 3 * 0.2, 1e-12);
 }
 
 // A walk -> stand trial counts its fall alone: the still walker, which stands through 0.3 s, adds

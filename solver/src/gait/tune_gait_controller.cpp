@@ -242,7 +242,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
           const double stride_error = g.stride_time_s > 0 ? std::abs(g.stride_time_s / cycle_s - 1.0) : 1.0;
           // Unweighted, not counted at all: 0 x a drift that is not finite is not 0.
           const double drift = (t.drift_weight > 0 ? t.drift_weight * g.drift_rad : 0.0) +
-                               (t.cycle_change_weight > 0 ? t.cycle_change_weight * g.cycle_change_rad : 0.0);
+                               (t.cycle_change_weight > 0 ? t.cycle_change_weight * (g.fell_at_s >= 0 ? t.cycle_change_limit_rad : std::min(g.cycle_change_rad, t.cycle_change_limit_rad)) : 0.0);
           cost_here += t.tracking_weight * tracking + t.effort_weight * effort + t.stride_weight * stride_error + drift;
           worst_stride = std::max(worst_stride, stride_error);
           if (t.worst_rotation_limit_deg > 0)

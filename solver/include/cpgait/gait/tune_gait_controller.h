@@ -7,7 +7,7 @@
 // tolerance; walk -> stand trials, scored by their falls alone), each scored by
 //   (horizon - time walked) / horizon * fall_weight + tracking_weight * (mean + worst rotation RMS, rad)
 //   + effort_weight * mean squared excitation + stride_weight * |stride time / (cycle / speed) - 1|
-//   + drift_weight * drift (rad) + cycle_change_weight * cycle change (rad)
+//   + drift_weight * drift (rad) + cycle_change_weight * min(cycle change, its limit) (rad; a fall: the limit)
 //   (+ fall_weight * the worst rotation's excess over a bound, relative to it, when one is set)
 // and the candidate by their mean: the falls first, then the deviation from the trial's cycle, then
 // effort. The simulations run in parallel; the starting controller (the CPG's, else the defaults) is
@@ -40,6 +40,10 @@ struct GaitTuningOptions {
   double drift_weight = 0.0;
   // cost per rad of the walk's cycle change (ReproducedGaitResult::cycle_change_rad) (default 0).
   double cycle_change_weight = 0.0;
+  // The cycle change counted at most, rad (default 0.25, past the 0.13-0.24 rad of walkers that fall
+  // within 0.3 s of their horizon). A walk that falls counts it in full: its last cycle is the fall,
+  // or before two cycles there is none, and either way the fall weight already scores it.
+  double cycle_change_limit_rad = 0.25;
   // A bound on the worst rotation's tracking RMS (deg; 0: none, the default): beyond it a walk costs
   // fall_weight per bound's worth of excess, as much as falling at once. Tuned over ground steps
   // without it, subject01's hip_rotation_l drifted to 6.1 deg (measured).
