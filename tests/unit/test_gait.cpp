@@ -933,6 +933,16 @@ struct QuickTuning {
   GaitTuningResult tune(const GaitTuningOptions& options) const { return tune_gait_controller(w.m, w.cpg, w.reference, w.feet, o, options); }
 };
 
+// The start's cost with one term's weight at 0, 1 and 2, the other options t's.
+std::array<double, 3> start_costs_by_weight(const QuickTuning& q, double GaitTuningOptions::*weight, GaitTuningOptions t) {
+  std::array<double, 3> cost{};
+  for (int w = 0; w < 3; ++w) {
+    t.*weight = w;
+    cost[static_cast<std::size_t>(w)] = q.tune(t).summary.start_cost;
+  }
+  return cost;
+}
+
 }  // namespace
 
 // The tuner's extra walks and bound enter each candidate's cost: a ground step of zero height is the
@@ -957,13 +967,10 @@ TEST(GaitTuning, DriftEntersTheCostByItsWeight) {
   QuickTuning q(2);
   q.t.horizon_s = 2.2 * q.w.cpg.cycle_s;
   q.o.fall_height_fraction = -1e9;
-  GaitTuningOptions once = q.t, twice = q.t;
-  once.drift_weight = 1;
-  twice.drift_weight = 2;
-  const double none = q.tune(q.t).summary.start_cost, with_once = q.tune(once).summary.start_cost;
-  EXPECT_GT(with_once, none + 1e-6);
-  EXPECT_NEAR(q.tune(twice).summary.start_cost - none, 2 * (with_once - none), 1e-12);
-  std::printf("[info] the still walker's drift over %.2f s: %.3g rad\n", q.t.horizon_s, with_once - none);
+  const std::array<double, 3> cost = start_costs_by_weight(q, &GaitTuningOptions::drift_weight, q.t);
+  EXPECT_GT(cost[1], cost[0] + 1e-6);
+  EXPECT_NEAR(cost[2] - cost[0], 2 * (cost[1] - cost[0]), 1e-12);
+  std::printf("[info] the still walker's drift over %.2f s: %.3g rad\n", q.t.horizon_s, cost[1] - cost[0]);
 }
 
 // The cycle change enters the cost in proportion to its weight, and is the walk's measure (the still
@@ -972,18 +979,17 @@ TEST(GaitTuning, CycleChangeEntersTheCostByItsWeight) {
   QuickTuning q(2);
   q.t.horizon_s = 2.2 * q.w.cpg.cycle_s;
   q.o.fall_height_fraction = -1e9;
-  GaitTuningOptions once = q.t, twice = q.t;
-  once.cycle_change_weight = 1;
-  twice.cycle_change_weight = 2;
-  once.cycle_change_limit_rad = twice.cycle_change_limit_rad = 1e9;
-  const double none = q.tune(q.t).summary.start_cost, with_once = q.tune(once).summary.start_cost;
-  EXPECT_GT(with_once, none + 1e-6);
-  EXPECT_NEAR(q.tune(twice).summary.start_cost - none, 2 * (with_once - none), 1e-12);
-  std::printf("[info] the still walker's cycle change over %.2f s: %.3g rad\n", q.t.horizon_s, with_once - none);
+  GaitTuningOptions unlimited = q.t;
+  unlimited.cycle_change_limit_rad = 1e9;
+  const std::array<double, 3> cost = start_costs_by_weight(q, &GaitTuningOptions::cycle_change_weight, unlimited);
+  EXPECT_GT(cost[1], cost[0] + 1e-6);
+  EXPECT_NEAR(cost[2] - cost[0], 2 * (cost[1] - cost[0]), 1e-12);
+  std::printf("[info] the still walker's cycle change over %.2f s: %.3g rad\n", q.t.horizon_s, cost[1] - cost[0]);
   // Counted up to its limit.
-  GaitTuningOptions limited = once;
-  limited.cycle_change_limit_rad = 0.5 * (with_once - none);
-  EXPECT_NEAR(q.tune(limited).summary.start_cost - none, limited.cycle_change_limit_rad, 1e-12);
+  GaitTuningOptions limited = q.t;
+  limited.cycle_change_weight = 1;
+  limited.cycle_change_limit_rad = 0.5 * (cost[1] - cost[0]);
+  EXPECT_NEAR(q.tune(limited).summary.start_cost - cost[0], limited.cycle_change_limit_rad, 1e-12);
 }
 
 // A walk that falls counts the cycle change's limit, whatever its last cycle did: the still walker,

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "cpgait/gait/walk_measures.h"
 #include "cpgait/optim/cma_es.h"
 
 namespace cpgait {
@@ -102,9 +103,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
   if (t.restarts < 0) throw std::invalid_argument("tune_gait_controller: restarts must not be negative");
   if (!(t.restart_budget_s >= 0 && t.spent_before_s >= 0))
     throw std::invalid_argument("tune_gait_controller: the restarts' budget and the time spent before must not be negative");
-  std::vector<int> rotations;
-  for (int c = 0; c < model.num_coordinates(); ++c)
-    if (model.coordinates[c].is_angle()) rotations.push_back(c);
+  const std::vector<int> rotations = walk_angles(model);
   std::atomic<int> done{0};
   std::mutex progress_mutex;
   double simulated_s = 0;  // over every simulation so far, under progress_mutex
@@ -241,8 +240,9 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
           const double cycle_s = cpg.cycle_s / (cpg.speed * o.speed);
           const double stride_error = g.stride_time_s > 0 ? std::abs(g.stride_time_s / cycle_s - 1.0) : 1.0;
           // Unweighted, not counted at all: 0 x a drift that is not finite is not 0.
+          const double cycle_change = g.fell_at_s >= 0 ? t.cycle_change_limit_rad : std::min(g.cycle_change_rad, t.cycle_change_limit_rad);
           const double drift = (t.drift_weight > 0 ? t.drift_weight * g.drift_rad : 0.0) +
-                               (t.cycle_change_weight > 0 ? t.cycle_change_weight * (g.fell_at_s >= 0 ? t.cycle_change_limit_rad : std::min(g.cycle_change_rad, t.cycle_change_limit_rad)) : 0.0);
+                               (t.cycle_change_weight > 0 ? t.cycle_change_weight * cycle_change : 0.0);
           cost_here += t.tracking_weight * tracking + t.effort_weight * effort + t.stride_weight * stride_error + drift;
           worst_stride = std::max(worst_stride, stride_error);
           if (t.worst_rotation_limit_deg > 0)

@@ -122,10 +122,7 @@ void measure_walk(const Model& model, const WalkRecord& w, ReproducedGaitResult&
   if (ns > 1) r.distance_m = walked(0, r.time_s.back());
   if (r.frozen_at_s < 0) {  // a walk that stopped has no direction to keep, and its belt slowed
     r.drift_rad = walk_drift_rad(r.time_s, r.q, model.coordinate_index("pelvis_rotation"), tx, tz, belt, w.cycle_s / w.speed);
-    std::vector<int> angles;
-    for (int c = 0; c < model.num_coordinates(); ++c)
-      if (model.coordinates[c].is_angle()) angles.push_back(c);
-    r.cycle_change_rad = walk_cycle_change_rad(r.time_s, r.q, angles, w.cycle_s / w.speed);
+    r.cycle_change_rad = walk_cycle_change_rad(r.time_s, r.q, walk_angles(model), w.cycle_s / w.speed);
   }
   if (hs.size() >= 2) {
     const ContactPhases p = contact_phases(r.time_s, load[0], load[1], hs.front(), hs.back());
@@ -163,6 +160,13 @@ void measure_walk(const Model& model, const WalkRecord& w, ReproducedGaitResult&
     r.mean_residual_force_percent_bw = 100 * force / ns / (model.total_mass_kg() * model.gravity_m_s2.norm());
     r.mean_residual_moment_Nm = moment / ns;
   }
+}
+
+std::vector<int> walk_angles(const Model& model) {
+  std::vector<int> angles;
+  for (int c = 0; c < model.num_coordinates(); ++c)
+    if (model.coordinates[c].is_angle()) angles.push_back(c);
+  return angles;
 }
 
 double walk_cycle_change_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, const std::vector<int>& angles, double cycle_s) {

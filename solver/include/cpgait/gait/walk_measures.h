@@ -43,6 +43,10 @@ bool centre_of_mass_supported(const Model& model, const KinematicsWorkspace<doub
 double walk_drift_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, int yaw, int tx, int tz, const Eigen::Vector2d& belt_xz_m_s,
                       double cycle_s);
 
+// The coordinates a walk's angle measures run over (its cycle change; the tuner's rotation tracking):
+// every angle of the model.
+std::vector<int> walk_angles(const Model& model);
+
 // ReproducedGaitResult::cycle_change_rad: the RMS over the angles and the last cycle's samples of
 // q(t) - q(t - cycle_s) (rad; 0 for a walk shorter than two cycles); time_s evenly sampled.
 double walk_cycle_change_rad(const std::vector<double>& time_s, const Eigen::MatrixXd& q, const std::vector<int>& angles, double cycle_s);
