@@ -352,6 +352,9 @@ void add_gait_tuning_options(CLI::App* gait, GaitArgs* g) {
   gait->add_flag("--tune-swing-world", g->tuning.tune_swing_world,
                  "tuning: also search the swing hip's world-frame share (SIMBICON's: the swing femur turned by the pelvis' orientation "
                  "error, so the foot lands headed as the trial's), from 1 where the CPG has no controller");
+  gait->add_flag("--tune-ankle", g->tuning.tune_ankle,
+                 "tuning: also search the lateral ankle strategy's gains, the stance foot rolled onto its outer edge as the pelvis "
+                 "moves out over it in single support, from 1 rad/m and 0.3 rad s/m where the CPG has no controller");
   gait->add_flag("--tune-entrainment", g->tuning.tune_entrainment,
                  "tuning: also search the CPG's entrainment, the share of its phase error made up at each touchdown (see --entrainment)");
   gait->add_option("--tune-rotation-limit", g->tuning.worst_rotation_limit_deg,

@@ -570,7 +570,7 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   // The stage's ground steps, pushes and tolerances reach the tuner: each candidate's cost is the mean
   // over its walks, so the start's cost changes; a push needs three numbers, a tolerance is positive.
   std::ofstream(dir + "/perturbed.json")
-      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "tune_stop_at": [0.5], "control_interval_s": 0.001, "tolerance": 8e-3, "integrator": "rosenbrock", "tune_entrainment": true, "tune_swing_world": true, "tune_stance_hold": true, "speed_knobs": []}})";
+      << R"({"gait": {"tune_evaluations": 8, "tune_horizon_s": 1.0, "tune_rotation_limit_deg": 0.01, "tune_steps_m": [-0.2], "tune_pushes_N_s": [0, 0, -30], "tune_tolerances": [1e-3, 1e-2], "tune_step_at": [0.3, 0.7], "tune_stop_at": [0.5], "control_interval_s": 0.001, "tolerance": 8e-3, "integrator": "rosenbrock", "tune_entrainment": true, "tune_swing_world": true, "tune_stance_hold": true, "tune_ankle": true, "speed_knobs": []}})";
   const CliRun perturbed = run("run --model " + model + " --markers " + dir + "/w.trc --options " + dir + "/perturbed.json -o " + dir + "/perturbed");
   ASSERT_EQ(perturbed.status, 0) << perturbed.output;
   const nlohmann::json p = nlohmann::json::parse(cpgait::text::read_file(dir + "/perturbed/w_gait.json"));
@@ -584,11 +584,16 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   const nlohmann::json searched = p["tuning"]["controller"]["entrainment"];
   EXPECT_NE(searched, nlohmann::json({{"share", 0.0}, {"phase_r", 0.0}, {"phase_l", 0.5}})) << searched.dump();
   EXPECT_FALSE(gait["tuning"]["entrainment"].get<bool>());
-  // So were the swing hip's world share (from 1, SIMBICON's, for a CPG without a controller) and the stance hold (from 0).
+  // So were the swing hip's world share (from 1, SIMBICON's, for a CPG without a controller), the stance hold (from 0) and
+  // the ankle strategy (from 1 rad/m and 0.3 rad s/m).
   EXPECT_EQ(p["tuning"]["swing_world"], true);
   EXPECT_EQ(p["tuning"]["stance_hold"], true);
   EXPECT_NE(p["tuning"]["controller"]["swing_world"].get<double>(), 1.0);
   EXPECT_NE(p["tuning"]["controller"]["stance_hold"]["lateral_d"].get<double>(), 0.0);
+  EXPECT_EQ(p["tuning"]["ankle"], true);
+  EXPECT_NE(p["tuning"]["controller"]["ankle_strategy"]["lateral_d_rad_per_m"].get<double>(), 1.0);
+  EXPECT_NE(p["tuning"]["controller"]["ankle_strategy"]["lateral_d_rad_per_m"].get<double>(), 0.0);
+  EXPECT_EQ(gait["tuning"]["controller"]["ankle_strategy"]["lateral_d_rad_per_m"].get<double>(), 0.0);
   EXPECT_FALSE(gait["tuning"]["swing_world"].get<bool>());
   EXPECT_EQ(gait["tuning"]["controller"]["swing_world"].get<double>(), 0.0);
   // The walk's tolerance, controller interval and integrator: the defaults recorded, or the options',

@@ -230,6 +230,7 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   // A tuned controller, balance gains included, round-trips; a gain that is not a number is refused.
   named.controller = CpgController{250, 17, true, false, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25};
   named.controller->stance_lateral_d = 0.4, named.controller->stance_lateral_v = -0.17;
+  named.controller->ankle_d = 1.3, named.controller->ankle_v = -0.35;
   const CpgModel tuned = CpgModel::from_json(named.to_json(), "model.json");
   ASSERT_TRUE(tuned.controller.has_value());
   const CpgController& k = *tuned.controller;
@@ -238,6 +239,8 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
             std::vector<double>({250, 17, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25}));
   EXPECT_EQ(k.stance_lateral_d, 0.4);
   EXPECT_EQ(k.stance_lateral_v, -0.17);
+  EXPECT_EQ(k.ankle_d, 1.3);
+  EXPECT_EQ(k.ankle_v, -0.35);
   bad = named.to_json();
   bad["controller"]["foot_placement"]["lateral_v_s"] = "fast";
   // Each mistyped member is refused by name.
@@ -257,6 +260,12 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   bad = named.to_json();
   bad["controller"]["stance_hold"]["lateral_d"] = "wide";
   EXPECT_EQ(field_of(bad), "controller.stance_hold.lateral_d");
+  bad = named.to_json();
+  bad["controller"]["ankle_strategy"]["lateral_v_rad_s_per_m"] = nullptr;
+  EXPECT_EQ(field_of(bad), "controller.ankle_strategy.lateral_v_rad_s_per_m");
+  bad = named.to_json();
+  bad["controller"]["ankle_strategy"] = 1.0;
+  EXPECT_EQ(field_of(bad), "controller.ankle_strategy");
   bad = named.to_json();
   bad["controller"]["simulation"]["integrator"] = 2;
   EXPECT_EQ(field_of(bad), "controller.simulation.integrator");
@@ -339,6 +348,8 @@ TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
   m.controller->entrainment = 0.2;
   m.speed_schedule = {{fast, 0.5}, {slow, 1.2}};  // any order
   m.speed_schedule[1].controller.stance_lateral_d = 0.2;  // slow's
+  m.speed_schedule[1].controller.ankle_v = 0.4;
+  m.controller->ankle_v = 0.2;
   const CpgModel at09 = scheduled_at_speed(m, 0.9);
   const CpgController& k = *at09.controller;
   EXPECT_NEAR(k.reflex_kp, 200, 1e-9);  // sqrt(400 x 100)
@@ -346,6 +357,7 @@ TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
   EXPECT_NEAR(k.trunk_kp, 3.0, 1e-12);
   EXPECT_NEAR(k.sagittal_v, -0.05, 1e-12);
   EXPECT_NEAR(k.stance_lateral_d, 0.1, 1e-12);  // halfway from slow's 0.2 to the controller's 0
+  EXPECT_NEAR(k.ankle_v, 0.3, 1e-12);
   EXPECT_NEAR(at09.amplitude, std::sqrt(1.2 * 0.6), 1e-12);
   EXPECT_EQ(k.start_time_s, 0.618);
   EXPECT_EQ(k.begin_time_s, 0.25);

@@ -106,13 +106,13 @@ Eigen::VectorXd walker_pose(const Model& m) {
 }
 
 struct BalanceCase {
-  const Model& m = refdata::walker();
+  const Model& m;
   ContactSet feet = default_foot_contacts(m);
   SimbiconLegs legs = simbicon_legs(m, feet);
   Eigen::VectorXd q = walker_pose(m);
   KinematicsWorkspace<double> kin{m};
   MotionSubspace S{m};
-  BalanceCase() {
+  explicit BalanceCase(const Model& model = refdata::walker()) : m(model) {
     forward_kinematics(m, q.data(), kin);
     motion_subspace(m, q.data(), kin, S);
   }
@@ -298,6 +298,62 @@ TEST(SimbiconBalance, StanceHipHoldsThePelvisOverTheFootSideways) {
   EXPECT_NEAR(shift.dot(along), 0.0, 1e-3 * h);
   EXPECT_GT(std::abs(want), 0.5 * h);
   // Both feet loaded: no hold.
+  std::vector<Eigen::Vector3d> both = c.right_stance();
+  for (int s : c.legs.spheres[1]) both[s] = Eigen::Vector3d(0, 400, 0);
+  placement_errors(c, g, u, ref_kin, both, e, ed);
+  EXPECT_EQ(e.norm(), 0.0);
+}
+
+// The lateral ankle strategy: in single support the stance foot's target roll, on the rotation whose
+// axis is closest to the walking direction (gait2392's subtalar), turns the foot about that direction
+// by a_d (d - d_ref) + a_v (v - v_ref) across the way, lowering its outer edge as the pelvis moves out
+// over it; no other target changes, and in double support none does. The walker, whose ankles turn
+// about the across axis only, gets none.
+TEST(SimbiconBalance, AnkleStrategyRollsTheStanceFootOntoItsOuterEdge) {
+  SimbiconGains g;
+  g.ankle_d = 1.0;
+  g.ankle_v = 0.3;
+  const double h = 1e-4;
+  Eigen::VectorXd e, ed;
+  {
+    BalanceCase walker;
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(walker.m.num_coordinates());
+    u[walker.m.coordinate_index("pelvis_tz")] = h;
+    placement_errors(walker, g, u, reference_moved(walker, "hip_adduction_r", 10 * h), walker.right_stance(), e, ed);
+    EXPECT_EQ(e.norm(), 0.0) << "the walker's ankles do not roll the foot";
+  }
+  const std::string path = refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim");
+  REQUIRE_REFERENCE(path);
+  const Model model = read_osim(path).model;
+  BalanceCase c(model);
+  ASSERT_TRUE(c.legs.valid());
+  // The pelvis moving out over the right foot (ground +z, the right side) and offset that way.
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(c.m.num_coordinates());
+  u[c.m.coordinate_index("pelvis_tz")] = h / g.ankle_v;
+  const KinematicsWorkspace<double> ref_kin = reference_moved(c, "hip_adduction_r", -10 * h);
+  const Eigen::Vector3d d_error = right_offset_error(c, ref_kin);
+  const auto [along, across] = heading_axes(c, ref_kin);
+  ASSERT_GT(across.z(), 0.9) << "across the way is the right side";
+  const double want = g.ankle_d * d_error.dot(across) + g.ankle_v * u[c.m.coordinate_index("pelvis_tz")] * across.z();
+  ASSERT_GT(want, h) << "the pelvis moves out over the right foot";
+  placement_errors(c, g, u, ref_kin, c.right_stance(), e, ed);
+  const int roll = c.m.coordinate_index("subtalar_angle_r");
+  for (int k = 0; k < c.m.num_coordinates(); ++k)
+    if (k != roll) EXPECT_EQ(e[k], 0.0) << c.m.coordinates[k].name;
+  EXPECT_EQ(ed.norm(), 0.0);
+  Eigen::VectorXd moved = c.q;
+  moved[roll] += e[roll];
+  KinematicsWorkspace<double> after(c.m);
+  forward_kinematics(c.m, moved.data(), after);
+  const int foot = c.m.body_index("calcn_r");
+  const Eigen::AngleAxisd turn(after.body_in_ground[foot].rotation * c.kin.body_in_ground[foot].rotation.transpose());
+  EXPECT_NEAR(turn.angle() * turn.axis().dot(along), want, 1e-6 * want) << "the foot's roll about the walking direction";
+  // The foot's outer edge, 4 cm to the right of its origin, goes down.
+  const Eigen::Vector3d edge = c.kin.body_in_ground[foot].rotation.transpose() * (0.04 * across);
+  const double lowered = (c.kin.body_in_ground[foot].rotation * edge + c.kin.body_in_ground[foot].translation_m).y() -
+                         (after.body_in_ground[foot].rotation * edge + after.body_in_ground[foot].translation_m).y();
+  EXPECT_GT(lowered, 0.02 * want);
+  // Both feet loaded: no roll.
   std::vector<Eigen::Vector3d> both = c.right_stance();
   for (int s : c.legs.spheres[1]) both[s] = Eigen::Vector3d(0, 400, 0);
   placement_errors(c, g, u, ref_kin, both, e, ed);
@@ -1418,6 +1474,31 @@ TEST(GaitTuning, StanceHoldIsSearchedWhenAsked) {
   const CpgController both = tuned();
   EXPECT_NE(both.stance_lateral_d, 0.0);
   EXPECT_NE(both.entrainment, 0.0);
+}
+
+// The ankle strategy's gains are searched only when asked, each in its own place beside the stance
+// hold's and the entrainment's.
+TEST(GaitTuning, AnkleStrategyIsSearchedWhenAsked) {
+  const QuickTuning q(8);
+  CpgModel cpg = q.w.cpg;
+  cpg.controller = CpgController{};
+  GaitTuningOptions t = q.t;
+  auto tuned = [&] { return *tune_gait_controller(q.w.m, cpg, q.w.reference, q.w.feet, q.o, t).cpg.controller; };
+  const CpgController kept = tuned();
+  EXPECT_EQ(kept.ankle_d, 0.0);
+  EXPECT_EQ(kept.ankle_v, 0.0);
+  t.tune_ankle = true;
+  const CpgController searched = tuned();
+  std::printf("[info] ankle strategy after 8 simulations: %.4f rad/m, %.4f rad s/m\n", searched.ankle_d, searched.ankle_v);
+  EXPECT_NE(searched.ankle_d, 0.0);
+  EXPECT_NE(searched.ankle_v, 0.0);
+  EXPECT_EQ(searched.stance_lateral_d, 0.0);
+  EXPECT_EQ(searched.entrainment, 0.0);
+  t.tune_stance_hold = t.tune_entrainment = true;
+  const CpgController all = tuned();
+  EXPECT_NE(all.ankle_v, 0.0);
+  EXPECT_NE(all.stance_lateral_v, 0.0);
+  EXPECT_NE(all.entrainment_phase_l, 0.5);
 }
 
 // Joints no muscle crosses (the walker's back) are held at the trial's mean as a locked joint would

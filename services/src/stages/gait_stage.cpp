@@ -32,7 +32,7 @@ struct GaitStageOptions {
   double tune_drift_weight = 0;  // at 1, longer walkers past the horizon, subject01's run slower (docs/gait-tuning.md)
   double tune_cycle_weight = 0;
   bool tune_entrainment = false;
-  bool tune_swing_world = false, tune_stance_hold = false;
+  bool tune_swing_world = false, tune_stance_hold = false, tune_ankle = false;
   int foot_spheres = 5;
   std::vector<double> tune_steps_m, tune_pushes_N_s, tune_tolerances;
   std::vector<double> tune_step_at = {0.5};
@@ -103,6 +103,9 @@ struct GaitStageOptions {
             .boolean("tune_stance_hold", &GaitStageOptions::tune_stance_hold,
                      "tuning: also search the stance-foot hold, the single-support hip moving its foot across the way against the "
                      "pelvis' sideways offset and speed")
+            .boolean("tune_ankle", &GaitStageOptions::tune_ankle,
+                     "tuning: also search the lateral ankle strategy, the single-support foot rolled onto its outer edge as the "
+                     "pelvis moves out over it")
             .number("tune_rotation_limit_deg", &GaitStageOptions::tune_rotation_limit_deg, "deg",
                     "tuning: a walk whose worst rotation tracks the trial's cycle worse than this (RMS) costs as much as a fall (0: no bound)",
                     NumberRange{0.0, 90.0})
@@ -273,6 +276,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
   to.tune_entrainment = o.tune_entrainment;
   to.tune_swing_world = o.tune_swing_world;
   to.tune_stance_hold = o.tune_stance_hold;
+  to.tune_ankle = o.tune_ankle;
   to.foot_spheres = o.foot_spheres;
   to.ground_steps_m = o.tune_steps_m;
   if (!o.tune_step_at.empty()) to.ground_step_at = o.tune_step_at;
@@ -301,7 +305,7 @@ nlohmann::json tune_for_stage(StageContext& trial, const Model& model, CpgModel&
                            {"budget_simulated_s", o.tune_budget_simulated_s}, {"restarts_skipped", tuned.summary.restarts_skipped},
                            {"seconds", tuned.summary.seconds},
                            {"cost", {tuned.summary.start_cost, tuned.summary.cost}}, {"walked_s", {tuned.summary.start_walked_s, tuned.summary.walked_s}},
-                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"drift_weight", to.drift_weight}, {"cycle_weight", to.cycle_change_weight}, {"entrainment", o.tune_entrainment}, {"swing_world", o.tune_swing_world}, {"stance_hold", o.tune_stance_hold},
+                           {"horizon_s", to.horizon_s}, {"population", o.tune_population}, {"seed", o.tune_seed}, {"restarts", tuned.summary.restarts}, {"rotation_limit_deg", to.worst_rotation_limit_deg}, {"drift_weight", to.drift_weight}, {"cycle_weight", to.cycle_change_weight}, {"entrainment", o.tune_entrainment}, {"swing_world", o.tune_swing_world}, {"stance_hold", o.tune_stance_hold}, {"ankle", o.tune_ankle},
                            {"steps_m", o.tune_steps_m}, {"step_at", o.tune_step_at}, {"stop_at", o.tune_stop_at}, {"pushes_N_s", o.tune_pushes_N_s}, {"tolerances", o.tune_tolerances},
                            {"controller", driving.controller->to_json()}, {"amplitude", driving.amplitude}};
   for (double knob : knobs) {

@@ -608,6 +608,8 @@ CpgModel scheduled_at_speed(const CpgModel& cpg, double knob) {
   k.stance_lateral_d = lin(a.controller.stance_lateral_d, b.controller.stance_lateral_d);
   k.stance_lateral_v = lin(a.controller.stance_lateral_v, b.controller.stance_lateral_v);
   k.swing_world = lin(a.controller.swing_world, b.controller.swing_world);
+  k.ankle_d = lin(a.controller.ankle_d, b.controller.ankle_d);
+  k.ankle_v = lin(a.controller.ankle_v, b.controller.ankle_v);
   k.entrainment = lin(a.controller.entrainment, b.controller.entrainment);
   k.entrainment_phase_r = lin(a.controller.entrainment_phase_r, b.controller.entrainment_phase_r);
   k.entrainment_phase_l = lin(a.controller.entrainment_phase_l, b.controller.entrainment_phase_l);
@@ -631,6 +633,7 @@ nlohmann::json CpgController::to_json() const {
           {"entrainment", {{"share", entrainment}, {"phase_r", entrainment_phase_r}, {"phase_l", entrainment_phase_l}}},
           {"foot_placement", {{"lateral_d", lateral_d}, {"lateral_v_s", lateral_v}, {"sagittal_d", sagittal_d}, {"sagittal_v_s", sagittal_v}}},
           {"stance_hold", {{"lateral_d", stance_lateral_d}, {"lateral_v_s", stance_lateral_v}}},
+          {"ankle_strategy", {{"lateral_d_rad_per_m", ankle_d}, {"lateral_v_rad_s_per_m", ankle_v}}},
           {"simulation", {{"control_interval_s", control_interval_s}, {"integrator", integrator}, {"tolerance", integrator_tolerance}}}};
 }
 
@@ -723,6 +726,12 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         k.stance_lateral_d = field_or(sh, "lateral_d", k.stance_lateral_d, field + ".stance_hold");
         k.stance_lateral_v = field_or(sh, "lateral_v_s", k.stance_lateral_v, field + ".stance_hold");
       }
+      if (c.contains("ankle_strategy")) {
+        const auto& as = c["ankle_strategy"];
+        if (!as.is_object()) fail(field + ".ankle_strategy", "expected {\"lateral_d_rad_per_m\", \"lateral_v_rad_s_per_m\"}");
+        k.ankle_d = field_or(as, "lateral_d_rad_per_m", k.ankle_d, field + ".ankle_strategy");
+        k.ankle_v = field_or(as, "lateral_v_rad_s_per_m", k.ankle_v, field + ".ankle_strategy");
+      }
       if (c.contains("simulation")) {
         const auto& sim = c["simulation"];
         if (!sim.is_object()) fail(field + ".simulation", "expected {\"control_interval_s\", \"integrator\", \"tolerance\"}");
@@ -736,7 +745,7 @@ CpgModel CpgModel::from_json(const nlohmann::json& j, const std::string& source)
         if (!k.integrator.empty() && !w_method_named(k.integrator))
           fail(field + ".simulation.integrator", "\"ros34pw2\", \"rosenbrock\" or \"linearly_implicit_euler\" (empty: not recorded), not \"" + k.integrator + "\"");
       }
-      for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v, k.stance_lateral_d, k.stance_lateral_v, k.swing_world})
+      for (double v : {k.trunk_kp, k.trunk_kv, k.lateral_d, k.lateral_v, k.sagittal_d, k.sagittal_v, k.stance_lateral_d, k.stance_lateral_v, k.swing_world, k.ankle_d, k.ankle_v})
         if (!std::isfinite(v)) fail(field, "balance gains must be finite numbers");
       if (!(k.reflex_kp >= 0) || !(k.reflex_kv >= 0)) fail(field + ".reflex_kp", "reflex gains must be non-negative");
       if (!(k.speed > 0)) fail(field + ".speed", "the speed knob it was tuned at must be positive");

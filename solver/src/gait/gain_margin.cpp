@@ -24,7 +24,9 @@ GainMarginSummary gain_margin(const Model& model, const CpgModel& cpg, const Sto
                         {"sagittal_d", nullptr, &SimbiconGains::sagittal_d},   {"sagittal_v", nullptr, &SimbiconGains::sagittal_v},
                         {"swing_world", nullptr, &SimbiconGains::swing_world, true},
                         {"stance_lateral_d", nullptr, &SimbiconGains::stance_lateral_d, true},
-                        {"stance_lateral_v", nullptr, &SimbiconGains::stance_lateral_v, true}};
+                        {"stance_lateral_v", nullptr, &SimbiconGains::stance_lateral_v, true},
+                        {"ankle_d", nullptr, &SimbiconGains::ankle_d, true},
+                        {"ankle_v", nullptr, &SimbiconGains::ankle_v, true}};
   GainMarginSummary s;
   s.factor = margin.factor;
   std::vector<ReproducedGaitOptions> walks;

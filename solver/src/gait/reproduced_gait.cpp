@@ -594,7 +594,7 @@ ReproducedGaitOptions with_controller(const CpgController& c, ReproducedGaitOpti
   o.reflex_kv = c.reflex_kv;
   o.phase_indexed_reference = c.phase_reference;
   o.pelvis_residuals = c.pelvis_residuals;
-  o.balance = {c.trunk_kp, c.trunk_kv, c.lateral_d, c.lateral_v, c.sagittal_d, c.sagittal_v, c.stance_lateral_d, c.stance_lateral_v, c.swing_world};
+  o.balance = {c.trunk_kp, c.trunk_kv, c.lateral_d, c.lateral_v, c.sagittal_d, c.sagittal_v, c.stance_lateral_d, c.stance_lateral_v, c.ankle_d, c.ankle_v, c.swing_world};
   o.entrainment.share = c.entrainment;
   o.entrainment.phase_r = c.entrainment_phase_r;
   o.entrainment.phase_l = c.entrainment_phase_l;

@@ -43,12 +43,30 @@ SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts) {
       break;
     }
   if (legs.pelvis_body <= 0) return legs;
+  int thigh[2] = {-1, -1};
   for (const auto& j : model.joints) {
     if (j.parent_body != legs.pelvis_body) continue;
     const int side = side_of(model.bodies[j.child_body].name);
-    if (side >= 0 && legs.hip[side].empty())
+    if (side >= 0 && legs.hip[side].empty()) {
+      thigh[side] = j.child_body;
       for (int c : j.coordinates)
         if (model.coordinates[c].is_angle()) legs.hip[side].push_back(c);
+    }
+  }
+  // Each thigh's subtree, whatever order the joints come in.
+  for (int side = 0; side < 2; ++side) {
+    if (thigh[side] < 0) continue;
+    std::vector<bool> in_leg(model.bodies.size(), false);
+    in_leg[thigh[side]] = true;
+    for (bool grew = true; grew;) {
+      grew = false;
+      for (const auto& j : model.joints)
+        if (in_leg[j.parent_body] && !in_leg[j.child_body]) {
+          in_leg[j.child_body] = grew = true;
+          for (int c : j.coordinates)
+            if (model.coordinates[c].is_angle()) legs.below_hip[side].push_back(c);
+        }
+    }
   }
   for (std::size_t s = 0; s < contacts.spheres.size(); ++s) {
     const int side = side_of(contacts.spheres[s].name);
@@ -89,6 +107,7 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
                                 across * (g.lateral_d * d_error.dot(across) + g.lateral_v * dv.dot(across));
   const bool placement = g.lateral_d != 0 || g.lateral_v != 0 || g.sagittal_d != 0 || g.sagittal_v != 0;
   const bool hold = g.stance_lateral_d != 0 || g.stance_lateral_v != 0;
+  const bool ankle = g.ankle_d != 0 || g.ankle_v != 0;
   // The hip's change that moves the side's foot by `shift` against the pelvis (horizontal), least
   // squares. Not by the hip's turn about the (roughly vertical) thigh: with the knee bent it swings
   // the foot sideways by twisting the leg.
@@ -113,6 +132,19 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
     const Eigen::VectorXd dh = Jf.completeOrthogonalDecomposition().solve(Eigen::Vector2d(by.x(), by.z()));
     for (Eigen::Index i = 0; i < nh; ++i) e[hip[i]] += dh[i];
   };
+  // Rolls the side's foot about the walking direction by `angle` (rad; positive lowers the edge on the
+  // `across` side) with the rotation below the hip whose axis is closest to that direction.
+  auto roll_foot = [&](int side, double angle) {
+    int best = -1;
+    double best_share = 0.5, best_along = 0;  // |cos| of the axis' angle to the way: at least cos 60 deg
+    for (int c : legs.below_hip[side]) {
+      const Eigen::Vector3d w = S.columns.col(c).head<3>();
+      const double n = w.norm();
+      if (!(n > 1e-12)) continue;
+      if (std::abs(w.dot(along)) / n >= best_share) best = c, best_share = std::abs(w.dot(along)) / n, best_along = w.dot(along);
+    }
+    if (best >= 0) e[best] += angle / best_along;
+  };
   // The hip's change that turns the femur as a change dp of the pelvis' rotations would: Jh^+ Jp.
   auto femur_map = [&](int side) -> Eigen::MatrixXd {
     const auto& hip = legs.hip[side];
@@ -126,6 +158,7 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
     if (stance[side]) {
       if (hold && !stance[1 - side])
         move_foot(side, across * (g.stance_lateral_d * d_error.dot(across) + g.stance_lateral_v * dv.dot(across)));
+      if (ankle && !stance[1 - side]) roll_foot(side, g.ankle_d * d_error.dot(across) + g.ankle_v * dv.dot(across));
       if (g.trunk_kp == 0 && g.trunk_kv == 0) continue;
       // The femur held still: Jh dh + Jp dp = 0.
       const Eigen::MatrixXd map = -femur_map(side);

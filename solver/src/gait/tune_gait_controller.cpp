@@ -20,22 +20,23 @@ namespace {
 // bounded change: the CPG's patterns are the trial's), then the balance gains (simbicon_balance.h) as
 // the start's plus these steps per unit: trunk shares 1, foot placement 0.3 m/m and 0.1 s; with
 // tune_stance_hold, the stance-foot hold's gains as the start's plus 0.3 m/m and 0.1 s per unit; with
-// tune_swing_world, the swing hip's world-frame share as the start's plus 1 per unit; with
+// tune_swing_world, the swing hip's world-frame share as the start's plus 1 per unit; with tune_ankle,
+// the lateral ankle strategy's gains as the start's plus 1 rad/m and 0.3 rad s/m per unit; with
 // tune_entrainment, the entrainment share as the start's plus 0.25 per unit, within [0, 1], and the
 // feet's heel-strike phases as the start's plus 0.05 per unit.
 constexpr double kAmplitudeRange = 0.3;
-constexpr int kParameters = 9, kStanceHoldParameters = 2, kEntrainmentParameters = 3;
+constexpr int kParameters = 9, kStanceHoldParameters = 2, kAnkleParameters = 2, kEntrainmentParameters = 3;
 const double kBalanceStep[6] = {1.0, 1.0, 0.3, 0.1, 0.3, 0.1};
-constexpr double kEntrainmentStep = 0.25, kHeelStrikePhaseStep = 0.05;
+constexpr double kEntrainmentStep = 0.25, kHeelStrikePhaseStep = 0.05, kAnkleStep[2] = {1.0, 0.3};
 
 struct Candidate {
   CpgController controller;
   double amplitude_factor;
 };
 
-// p: the kParameters, then where searched the stance hold's (hold), the swing hip's world share (world)
-// and the entrainment's.
-Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const ReproducedGaitOptions& base, bool hold, bool world) {
+// p: the kParameters, then those t searches: the stance hold's, the swing hip's world share, the ankle
+// strategy's and the entrainment's.
+Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const ReproducedGaitOptions& base, const GaitTuningOptions& t) {
   Candidate k{start, 1.0 + kAmplitudeRange * std::tanh(p[2])};
   k.controller.reflex_kp = start.reflex_kp * std::exp(p[0]);
   k.controller.reflex_kv = start.reflex_kv * std::exp(p[1]);
@@ -43,12 +44,16 @@ Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const Rep
                         &k.controller.lateral_v, &k.controller.sagittal_d, &k.controller.sagittal_v};
   for (int i = 0; i < 6; ++i) *balance[i] += kBalanceStep[i] * p[3 + i];
   Eigen::Index next = kParameters;
-  if (hold) {
+  if (t.tune_stance_hold) {
     k.controller.stance_lateral_d += kBalanceStep[2] * p[next++];
     k.controller.stance_lateral_v += kBalanceStep[3] * p[next++];
   }
-  if (world) k.controller.swing_world += kBalanceStep[0] * p[next++];
-  if (p.size() == next + kEntrainmentParameters) {
+  if (t.tune_swing_world) k.controller.swing_world += kBalanceStep[0] * p[next++];
+  if (t.tune_ankle) {
+    k.controller.ankle_d += kAnkleStep[0] * p[next++];
+    k.controller.ankle_v += kAnkleStep[1] * p[next++];
+  }
+  if (t.tune_entrainment) {
     k.controller.entrainment = std::clamp(start.entrainment + kEntrainmentStep * p[next], 0.0, 1.0);
     k.controller.entrainment_phase_r = start.entrainment_phase_r + kHeelStrikePhaseStep * p[next + 1];
     k.controller.entrainment_phase_l = start.entrainment_phase_l + kHeelStrikePhaseStep * p[next + 2];
@@ -65,10 +70,12 @@ Candidate decode(const Eigen::VectorXd& p, const CpgController& start, const Rep
 // order the searches found on subject01 (trunk 2.2-3.2 / 2.8-3.6, foot placement across 0.3-0.7 m/m
 // and 0.1-0.3 s, along 0.7-0.8 m/m and about 0 s), each a few of the search's steps from zero; the
 // swing hip, where searched, in SIMBICON's world frame (share 1: from 0 the searches' walkers fell
-// sooner after their horizon, docs/gait-tuning.md).
+// sooner after their horizon, docs/gait-tuning.md); the ankle strategy, where searched, at the gains
+// that made two of four knob-1 walkers walk 30 s (1 rad/m, 0.3 rad s/m; docs/gait-tuning.md).
 CpgController untuned_controller(const GaitTuningOptions& t) {
   CpgController k;
   k.swing_world = t.tune_swing_world ? 1.0 : 0.0;
+  if (t.tune_ankle) k.ankle_d = 1.0, k.ankle_v = 0.3;
   k.trunk_kp = k.trunk_kv = 2.0;
   k.lateral_d = 0.3, k.lateral_v = 0.1;
   k.sagittal_d = 0.5, k.sagittal_v = 0.0;
@@ -264,9 +271,10 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     return cost;
   };
   GaitTuningResult result;
-  const int parameters = kParameters + (t.tune_stance_hold ? kStanceHoldParameters : 0) + (t.tune_swing_world ? 1 : 0) + (t.tune_entrainment ? kEntrainmentParameters : 0);
+  const int parameters = kParameters + (t.tune_stance_hold ? kStanceHoldParameters : 0) + (t.tune_swing_world ? 1 : 0) +
+                         (t.tune_ankle ? kAnkleParameters : 0) + (t.tune_entrainment ? kEntrainmentParameters : 0);
   auto decode = [&](const Eigen::VectorXd& p, const CpgController& from, const ReproducedGaitOptions& b) {
-    return cpgait::decode(p, from, b, t.tune_stance_hold, t.tune_swing_world);
+    return cpgait::decode(p, from, b, t);
   };
   const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(parameters);
   // The start, scored over the whole horizon for the summary.

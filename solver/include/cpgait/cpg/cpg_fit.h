@@ -55,6 +55,8 @@ struct CpgController {
   // The balance feedback's stance-foot hold across the way (m/m, s) and the swing hip's world-frame
   // share (SimbiconGains; default 0: off).
   double stance_lateral_d = 0, stance_lateral_v = 0, swing_world = 0;
+  // The lateral ankle strategy's gains (SimbiconGains::ankle_d, rad/m, and ankle_v, rad s/m; default 0: off).
+  double ankle_d = 0, ankle_v = 0;
 
   nlohmann::json to_json() const;  // the CPG JSON's "controller" (CpgModel::from_json reads it)
 };

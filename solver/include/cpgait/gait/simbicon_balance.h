@@ -12,10 +12,16 @@
 // - stance-foot hold: in single support the stance hip's target moves that foot, against the pelvis,
 //   across the way by s_d (d - d_ref) + s_v (v - v_ref): the body drifting outward over the foot, the
 //   hip abducts and pushes it back (a hip strategy in the frontal plane);
+// - lateral ankle strategy: in single support the stance foot's joint that rolls it about the walking
+//   direction (gait2392's subtalar) gets a target roll of a_d (d - d_ref) + a_v (v - v_ref) across the
+//   way, pressing the foot's outer edge as the body moves out over it, which moves the centre of
+//   pressure outward and pushes the body back (Hof 2007; Reimann et al. 2018);
 // - swing hip in the world frame (SIMBICON's): the swing femur turned by a share of the pelvis'
 //   orientation error, so the foot lands headed as the reference's whatever the pelvis' yaw.
 // Legs are found by name: the joints from the root's body to a child named *_r / *_l (hips), and the
-// contact spheres named *_r / *_l (feet); a model without them gets no balance feedback.
+// contact spheres named *_r / *_l (feet); a model without them gets no balance feedback. The ankle
+// strategy rolls the rotation below the hip whose axis lies closest to the walking direction, if
+// within 60 deg of it (a planar model has none).
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -35,13 +41,15 @@ struct SimbiconGains {
   double sagittal_d = 0, sagittal_v = 0;
   // The stance-foot hold's s_d (m/m) and s_v (s), across the way (default 0: off).
   double stance_lateral_d = 0, stance_lateral_v = 0;
+  // The lateral ankle strategy's a_d (rad/m) and a_v (rad s/m) (default 0: off).
+  double ankle_d = 0, ankle_v = 0;
   // The swing hip's target in the world frame, SIMBICON's: this share (default 0: the pelvis' frame)
   // of the pelvis' orientation error (and its rate's) turns the swing femur too, so the foot lands
   // headed as the reference's, whatever the pelvis' yaw.
   double swing_world = 0;
   bool any() const {
     return trunk_kp != 0 || trunk_kv != 0 || lateral_d != 0 || lateral_v != 0 || sagittal_d != 0 || sagittal_v != 0 ||
-           stance_lateral_d != 0 || stance_lateral_v != 0 || swing_world != 0;
+           stance_lateral_d != 0 || stance_lateral_v != 0 || swing_world != 0 || ankle_d != 0 || ankle_v != 0;
   }
 };
 
@@ -51,6 +59,7 @@ struct SimbiconLegs {
   int pelvis_body = -1;
   std::vector<int> hip[2];                // coordinates of each side's hip (0 right, 1 left)
   std::vector<int> spheres[2];            // each side's contact spheres
+  std::vector<int> below_hip[2];          // each side's rotations below the hip (knee to toes)
   bool valid() const { return pelvis_body > 0 && !hip[0].empty() && !hip[1].empty() && !spheres[0].empty() && !spheres[1].empty(); }
   bool is_root(int c) const;              // one of the root's coordinates
 };

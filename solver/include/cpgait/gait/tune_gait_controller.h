@@ -93,6 +93,9 @@ struct GaitTuningOptions {
   bool tune_stance_hold = false;
   // Also search the swing hip's world-frame share (SimbiconGains::swing_world), from the start's (default false: kept).
   bool tune_swing_world = false;
+  // Also search the lateral ankle strategy's gains (SimbiconGains::ankle_d, ankle_v), from the start's,
+  // or from 1 rad/m and 0.3 rad s/m where the CPG has no controller (default false: kept).
+  bool tune_ankle = false;
   // The feet the walks stand on (`contacts`), recorded in the result's controller (CpgController::
   // foot_spheres): default_foot_contacts' spheres per foot, 0 for a contact file's (default 2). A
   // speed knob's entry is tuned on the controller's feet only (else std::invalid_argument).
