@@ -339,7 +339,9 @@ TEST(SimbiconBalance, AnkleStrategyRollsTheStanceFootOntoItsOuterEdge) {
   placement_errors(c, g, u, ref_kin, c.right_stance(), e, ed);
   const int roll = c.m.coordinate_index("subtalar_angle_r");
   for (int k = 0; k < c.m.num_coordinates(); ++k)
-    if (k != roll) EXPECT_EQ(e[k], 0.0) << c.m.coordinates[k].name;
+    if (k != roll) {
+      EXPECT_EQ(e[k], 0.0) << c.m.coordinates[k].name;
+    }
   EXPECT_EQ(ed.norm(), 0.0);
   Eigen::VectorXd moved = c.q;
   moved[roll] += e[roll];
