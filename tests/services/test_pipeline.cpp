@@ -257,9 +257,14 @@ TEST(PipelineStages, TheGaitStagesWalksEachReportTheirShareOfItsProgress) {
   bool after_main_walk = false;
   for (std::size_t i = 0; i < observer.reports.size(); ++i) {
     const auto [fraction, written] = observer.reports[i];
-    if (!written) EXPECT_LE(fraction, 0.25 + 1e-12) << "report " << i;
-    if (written) EXPECT_GE(fraction, 0.25 - 1e-12) << "report " << i;
-    if (i > 0) EXPECT_GE(fraction, observer.reports[i - 1].first) << "report " << i;
+    if (written) {
+      EXPECT_GE(fraction, 0.25 - 1e-12) << "report " << i;
+    } else {
+      EXPECT_LE(fraction, 0.25 + 1e-12) << "report " << i;
+    }
+    if (i > 0) {
+      EXPECT_GE(fraction, observer.reports[i - 1].first) << "report " << i;
+    }
     after_main_walk = after_main_walk || (written && fraction > 0.7);
   }
   EXPECT_TRUE(after_main_walk) << "no progress from the speed knob's walk";
