@@ -103,8 +103,10 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
   const Eigen::Vector3d along = horizontal_heading(reference_kin, legs.pelvis_body);
   const Eigen::Vector3d across = along.cross(Eigen::Vector3d::UnitY());
   const Eigen::Vector3d dv = v - v_ref;
+  // A feedback's sideways term: gain_d (d - d_ref) + gain_v (v - v_ref) across the way.
+  auto sideways = [&](double gain_d, double gain_v) { return gain_d * d_error.dot(across) + gain_v * dv.dot(across); };
   const Eigen::Vector3d shift = along * (g.sagittal_d * d_error.dot(along) + g.sagittal_v * dv.dot(along)) +
-                                across * (g.lateral_d * d_error.dot(across) + g.lateral_v * dv.dot(across));
+                                across * sideways(g.lateral_d, g.lateral_v);
   const bool placement = g.lateral_d != 0 || g.lateral_v != 0 || g.sagittal_d != 0 || g.sagittal_v != 0;
   const bool hold = g.stance_lateral_d != 0 || g.stance_lateral_v != 0;
   const bool ankle = g.ankle_d != 0 || g.ankle_v != 0;
@@ -157,8 +159,8 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
     const Eigen::Index nh = static_cast<Eigen::Index>(hip.size());
     if (stance[side]) {
       if (hold && !stance[1 - side])
-        move_foot(side, across * (g.stance_lateral_d * d_error.dot(across) + g.stance_lateral_v * dv.dot(across)));
-      if (ankle && !stance[1 - side]) roll_foot(side, g.ankle_d * d_error.dot(across) + g.ankle_v * dv.dot(across));
+        move_foot(side, across * sideways(g.stance_lateral_d, g.stance_lateral_v));
+      if (ankle && !stance[1 - side]) roll_foot(side, sideways(g.ankle_d, g.ankle_v));
       if (g.trunk_kp == 0 && g.trunk_kv == 0) continue;
       // The femur held still: Jh dh + Jp dp = 0.
       const Eigen::MatrixXd map = -femur_map(side);
