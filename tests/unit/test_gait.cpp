@@ -15,6 +15,7 @@
 #include "cpgait/kinematics/forward_kinematics.h"
 #include "cpgait/kinematics/motion_subspace.h"
 #include "cpgait/capture/input_error.h"
+#include "cpgait/capture/text_lines.h"
 #include "test_support.h"
 
 using namespace cpgait;
@@ -321,12 +322,14 @@ TEST(SimbiconBalance, AnkleStrategyRollsTheStanceFootOntoItsOuterEdge) {
     u[walker.m.coordinate_index("pelvis_tz")] = h;
     placement_errors(walker, g, u, reference_moved(walker, "hip_adduction_r", 10 * h), walker.right_stance(), e, ed);
     EXPECT_EQ(e.norm(), 0.0) << "the walker's ankles do not roll the foot";
+    EXPECT_FALSE(rolls_both_feet(walker.m, walker.legs));
   }
   const std::string path = refdata::gait2392("pipeline/OutputReference/subject01_simbody.osim");
   REQUIRE_REFERENCE(path);
   const Model model = read_osim(path).model;
   BalanceCase c(model);
   ASSERT_TRUE(c.legs.valid());
+  EXPECT_TRUE(rolls_both_feet(c.m, c.legs));
   // The pelvis moving out over the right foot (ground +z, the right side) and offset that way.
   Eigen::VectorXd u = Eigen::VectorXd::Zero(c.m.num_coordinates());
   u[c.m.coordinate_index("pelvis_tz")] = h / g.ankle_v;
@@ -470,12 +473,12 @@ namespace {
 
 // The walker's reference: the default pose held for 3 s, and its CPG; the gait starts at 0.5 s.
 struct StillWalker {
-  const Model& m = refdata::walker();
+  const Model& m;
   CpgModel cpg = walker_cpg(m);
   std::vector<double> t;
   Storage reference;
   ContactSet feet = default_foot_contacts(m);
-  StillWalker() {
+  explicit StillWalker(const Model& model = refdata::walker()) : m(model) {
     for (int i = 0; i <= 300; ++i) t.push_back(0.01 * i);
     const Eigen::MatrixXd q = m.default_coordinates().transpose().replicate(static_cast<Eigen::Index>(t.size()), 1);
     reference = make_storage("still", coordinate_names(m), t, q, false);
@@ -487,6 +490,18 @@ struct StillWalker {
     return centre_of_mass_m(m, k);
   }
 };
+
+// The walker with its ankles turned to roll the foot about the walking direction (ground x) rather
+// than flex it: a model the lateral ankle strategy has a joint on.
+const Model& walker_with_rolling_ankles() {
+  static const Model m = [] {
+    std::string osim = text::read_file(refdata::fixture("models/walker.osim"));
+    for (const std::string flexing : {"0.175 -0.105 0.0", "-0.175 0.105 0.0"})
+      for (std::size_t at = osim.find(flexing); at != std::string::npos; at = osim.find(flexing)) osim.replace(at, flexing.size(), "0.0 1.5707963267948966 0.0");
+    return parse_osim(osim, "walker_rolling_ankles.osim").model;
+  }();
+  return m;
+}
 
 // A reference that moves: the still walker's right hip swings 0.3 +- 0.2 rad once a CPG cycle.
 Storage swinging_reference(const StillWalker& w) {
@@ -982,7 +997,7 @@ struct QuickTuning {
   StillWalker w;
   ReproducedGaitOptions o;
   GaitTuningOptions t;
-  QuickTuning(int evaluations) {
+  explicit QuickTuning(int evaluations, const Model& model = refdata::walker()) : w(model) {
     o.start_time_s = 0.5;
     t.evaluations = evaluations;
     t.horizon_s = 0.3;
@@ -1456,9 +1471,22 @@ TEST(GaitTuning, EntrainmentIsSearchedWhenAsked) {
 }
 
 // The stance-foot hold's and the ankle strategy's gains are searched only when asked; searched with
-// the entrainment too, each keeps its own place among the searched parameters.
+// the entrainment too, each keeps its own place among the searched parameters. The ankle strategy is
+// searched only on a model with a joint to roll the feet on: asked on the walker, whose ankles only
+// flex, its search is the one without it.
 TEST(GaitTuning, StanceHoldAndAnkleStrategyAreSearchedWhenAsked) {
-  const QuickTuning q(8);
+  {
+    const QuickTuning flexing(8);
+    GaitTuningOptions t = flexing.t;
+    const GaitTuningResult without = flexing.tune(t);
+    t.tune_ankle = true;
+    const GaitTuningResult asked = flexing.tune(t);
+    EXPECT_FALSE(asked.summary.ankle_searched);
+    EXPECT_EQ(asked.cpg.to_json().dump(), without.cpg.to_json().dump());
+    EXPECT_EQ(asked.cpg.controller->ankle_d, 0.0);
+  }
+  const QuickTuning q(8, walker_with_rolling_ankles());
+  ASSERT_TRUE(rolls_both_feet(q.w.m, simbicon_legs(q.w.m, q.w.feet)));
   CpgModel cpg = q.w.cpg;
   cpg.controller = CpgController{};
   GaitTuningOptions t = q.t;

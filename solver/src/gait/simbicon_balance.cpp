@@ -15,6 +15,20 @@ Eigen::Vector3d foot_point(const ContactSet& contacts, const std::vector<int>& s
   return p / static_cast<double>(spheres.size());
 }
 
+// The rotation among `rotations` whose axis lies closest to `along` (unit), within 60 deg of it; -1:
+// none. along_share: the axis' component along it (signed), to turn a roll into the coordinate's angle.
+int closest_rotation(const MotionSubspace& S, const std::vector<int>& rotations, const Eigen::Vector3d& along, double* along_share) {
+  int best = -1;
+  double best_share = 0.5;  // |cos| of the axis' angle to the way: at least cos 60 deg
+  for (int c : rotations) {
+    const Eigen::Vector3d w = S.columns.col(c).head<3>();
+    const double n = w.norm();
+    if (!(n > 1e-12)) continue;
+    if (std::abs(w.dot(along)) / n >= best_share) best = c, best_share = std::abs(w.dot(along)) / n, *along_share = w.dot(along);
+  }
+  return best;
+}
+
 }  // namespace
 
 Eigen::Vector3d horizontal_heading(const KinematicsWorkspace<double>& kin, int body) {
@@ -73,6 +87,19 @@ SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts) {
     if (side >= 0) legs.spheres[side].push_back(static_cast<int>(s));
   }
   return legs;
+}
+
+bool rolls_both_feet(const Model& model, const SimbiconLegs& legs) {
+  if (!legs.valid()) return false;
+  Eigen::VectorXd q(model.num_coordinates());
+  for (int c = 0; c < model.num_coordinates(); ++c) q[c] = model.coordinates[static_cast<std::size_t>(c)].default_value;
+  KinematicsWorkspace<double> kin(model);
+  forward_kinematics(model, q.data(), kin);
+  MotionSubspace S(model);
+  motion_subspace(model, q.data(), kin, S);
+  const Eigen::Vector3d along = horizontal_heading(kin, legs.pelvis_body);
+  double share = 0;
+  return closest_rotation(S, legs.below_hip[0], along, &share) >= 0 && closest_rotation(S, legs.below_hip[1], along, &share) >= 0;
 }
 
 void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& legs, const SimbiconGains& g,
@@ -137,14 +164,8 @@ void simbicon_balance_feedback(const ContactSet& contacts, const SimbiconLegs& l
   // Rolls the side's foot about the walking direction by `angle` (rad; positive lowers the edge on the
   // `across` side) with the rotation below the hip whose axis is closest to that direction.
   auto roll_foot = [&](int side, double angle) {
-    int best = -1;
-    double best_share = 0.5, best_along = 0;  // |cos| of the axis' angle to the way: at least cos 60 deg
-    for (int c : legs.below_hip[side]) {
-      const Eigen::Vector3d w = S.columns.col(c).head<3>();
-      const double n = w.norm();
-      if (!(n > 1e-12)) continue;
-      if (std::abs(w.dot(along)) / n >= best_share) best = c, best_share = std::abs(w.dot(along)) / n, best_along = w.dot(along);
-    }
+    double best_along = 0;
+    const int best = closest_rotation(S, legs.below_hip[side], along, &best_along);
     if (best >= 0) e[best] += angle / best_along;
   };
   // The hip's change that turns the femur as a change dp of the pelvis' rotations would: Jh^+ Jp.

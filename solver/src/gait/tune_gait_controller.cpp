@@ -10,6 +10,7 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "cpgait/gait/simbicon_balance.h"
 #include "cpgait/gait/walk_measures.h"
 #include "cpgait/optim/cma_es.h"
 
@@ -92,8 +93,12 @@ bool GaitTuningOptions::set_pushes(const std::vector<double>& xyz_N_s) {
 }
 
 GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, const Storage& reference, const ContactSet& contacts,
-                                      const ReproducedGaitOptions& options, const GaitTuningOptions& t, Progress* progress) {
+                                      const ReproducedGaitOptions& options, const GaitTuningOptions& tuning, Progress* progress) {
   const auto t0 = std::chrono::steady_clock::now();
+  // The ankle strategy is searched only where it has a joint to roll the feet on: elsewhere its gains
+  // would be dimensions of the search that change no walk.
+  GaitTuningOptions t = tuning;
+  t.tune_ankle = t.tune_ankle && rolls_both_feet(model, simbicon_legs(model, contacts));
   // Every candidate, of every round's horizon, begins where a walk of the whole horizon would; the
   // controller keeps that beginning so a replay of any length is the same walk.
   ReproducedGaitOptions base = options;
@@ -271,6 +276,7 @@ GaitTuningResult tune_gait_controller(const Model& model, const CpgModel& cpg, c
     return cost;
   };
   GaitTuningResult result;
+  result.summary.ankle_searched = t.tune_ankle;
   const int parameters = kParameters + (t.tune_stance_hold ? kStanceHoldParameters : 0) + (t.tune_swing_world ? 1 : 0) +
                          (t.tune_ankle ? kAnkleParameters : 0) + (t.tune_entrainment ? kEntrainmentParameters : 0);
   auto decode = [&](const Eigen::VectorXd& p, const CpgController& from, const ReproducedGaitOptions& b) {

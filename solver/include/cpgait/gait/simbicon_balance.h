@@ -69,6 +69,11 @@ int side_of(const std::string& name);
 
 SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts);
 
+// Whether the lateral ankle strategy has a joint to roll each foot on: at the model's default pose, a
+// rotation below each hip within 60 deg of the pelvis' heading (gait2392's subtalar; a planar model has
+// none, and its ankle gains would do nothing).
+bool rolls_both_feet(const Model& model, const SimbiconLegs& legs);
+
 // A body's heading: its x axis made horizontal and unit (ground x where it points straight up or down).
 Eigen::Vector3d horizontal_heading(const KinematicsWorkspace<double>& kin, int body);
 

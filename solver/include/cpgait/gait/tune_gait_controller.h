@@ -94,7 +94,8 @@ struct GaitTuningOptions {
   // Also search the swing hip's world-frame share (SimbiconGains::swing_world), from the start's (default false: kept).
   bool tune_swing_world = false;
   // Also search the lateral ankle strategy's gains (SimbiconGains::ankle_d, ankle_v), from the start's,
-  // or from 1 rad/m and 0.3 rad s/m where the CPG has no controller (default false: kept).
+  // or from 1 rad/m and 0.3 rad s/m where the CPG has no controller; only on a model with a joint to
+  // roll each foot on (rolls_both_feet; GaitTuningSummary::ankle_searched) (default false: kept).
   bool tune_ankle = false;
   // The feet the walks stand on (`contacts`), recorded in the result's controller (CpgController::
   // foot_spheres): default_foot_contacts' spheres per foot, 0 for a contact file's (default 2). A
@@ -137,6 +138,7 @@ struct GaitTuningSummary {
   int restarts_skipped = 0;    // restarts the budget left out (GaitTuningOptions::restart_budget_s)
   double simulated_s = 0;      // simulated time over all of its simulations
   bool kept_start = false;     // the start walked and was kept unsearched (keep_walking_start_stride)
+  bool ankle_searched = false; // tune_ankle, and the model has a joint to roll each foot on (rolls_both_feet)
   std::string BriefReport() const;
 };
 
