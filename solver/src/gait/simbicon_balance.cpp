@@ -24,7 +24,8 @@ int closest_rotation(const MotionSubspace& S, const std::vector<int>& rotations,
     const Eigen::Vector3d w = S.columns.col(c).head<3>();
     const double n = w.norm();
     if (!(n > 1e-12)) continue;
-    if (std::abs(w.dot(along)) / n >= best_share) best = c, best_share = std::abs(w.dot(along)) / n, *along_share = w.dot(along);
+    const double w_along = w.dot(along);
+    if (std::abs(w_along) / n >= best_share) best = c, best_share = std::abs(w_along) / n, *along_share = w_along;
   }
   return best;
 }
@@ -91,8 +92,7 @@ SimbiconLegs simbicon_legs(const Model& model, const ContactSet& contacts) {
 
 bool rolls_both_feet(const Model& model, const SimbiconLegs& legs) {
   if (!legs.valid()) return false;
-  Eigen::VectorXd q(model.num_coordinates());
-  for (int c = 0; c < model.num_coordinates(); ++c) q[c] = model.coordinates[static_cast<std::size_t>(c)].default_value;
+  const Eigen::VectorXd q = model.default_coordinates();
   KinematicsWorkspace<double> kin(model);
   forward_kinematics(model, q.data(), kin);
   MotionSubspace S(model);
