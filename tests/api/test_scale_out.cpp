@@ -156,7 +156,6 @@ TEST(ScaleOut, KilledWorkersAndServerLoseNoTrialAndRewriteNoResult) {
   };
   std::vector<std::unique_ptr<WorkerProcess>> workers;
   std::vector<std::string> logs;  // of stopped workers
-  for (const char* n : {"a", "b", "c"}) workers.push_back(worker(n));
   auto client = [&]() -> httplib::Client& {
     static std::unique_ptr<httplib::Client> c;
     static int port = 0;
@@ -165,11 +164,12 @@ TEST(ScaleOut, KilledWorkersAndServerLoseNoTrialAndRewriteNoResult) {
   };
   // Ten-second walks: a second or more each with the CPG and the reproduced gait.
   const std::string trc = synthetic_trc(10.0, 5);
-  const int n = 18;
-  for (int i = 0; i < n; ++i) {
-    auto r = client().Post("/api/v1/trials", trial_form(trc, "long" + std::to_string(i) + ".trc", walker_with_residual_gait()));
+  int n = 0;  // trials uploaded
+  auto upload = [&] {
+    auto r = client().Post("/api/v1/trials", trial_form(trc, "long" + std::to_string(n++) + ".trc", walker_with_residual_gait()));
     ASSERT_TRUE(r && r->status == 202);
-  }
+  };
+  for (int i = 0; i < 18; ++i) upload();
   auto db = cpgait::services::open_postgres(pg.url());
   std::map<std::string, std::pair<std::string, fs::file_time_type>> finished;  // result file -> (bytes, mtime)
   auto snapshot_finished = [&] {
@@ -177,39 +177,58 @@ TEST(ScaleOut, KilledWorkersAndServerLoseNoTrialAndRewriteNoResult) {
       for (const auto& e : fs::directory_iterator(data + "/trials/" + *row[0] + "/results"))
         if (!finished.count(e.path().string())) finished[e.path().string()] = {slurp(e.path().string()), e.last_write_time()};
   };
-  // Kills the worker `name` while it holds a trial; returns how long until that trial ran again.
+  // Kills a worker that holds a trial and starts a replacement; returns how long until that trial ran
+  // again. A trial takes about half a second, so the worker may finish it between the poll and the kill:
+  // then nothing was orphaned, three more trials are queued, and another holder is killed, up to five times.
+  std::vector<std::string> names = {"a", "b", "c"};  // of the live workers, by index
+  for (const auto& name : names) workers.push_back(worker(name));
   std::vector<double> recovery_s;
-  auto kill_mid_trial = [&](std::size_t index, const std::string& name, const std::string& replacement) {
-    const std::string held = "SELECT id FROM trials WHERE status = 'running' AND worker = '" + name + "'";
-    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-    while (db->query(held).empty()) {
-      ASSERT_LT(std::chrono::steady_clock::now(), wait_until) << name << " never held a trial";
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  auto kill_mid_trial = [&] {
+    for (int attempt = 1;; ++attempt) {
+      std::string name;
+      std::size_t index = 0;
+      const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+      while (name.empty()) {
+        ASSERT_LT(std::chrono::steady_clock::now(), wait_until) << "no worker held a trial";
+        for (const auto& row : db->query("SELECT worker FROM trials WHERE status = 'running'")) {
+          const auto live = std::find(names.begin(), names.end(), *row[0]);
+          if (live != names.end()) name = *live, index = static_cast<std::size_t>(live - names.begin());
+        }
+        if (name.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      const std::string held = "SELECT id, attempt FROM trials WHERE status = 'running' AND worker = '" + name + "'";
+      workers[index]->stop(SIGKILL);
+      const auto killed = std::chrono::steady_clock::now();
+      const auto orphans = db->query(held);  // what the dead worker held when it died
+      ASSERT_LE(orphans.size(), 1u) << name << " held two trials";
+      snapshot_finished();
+      logs.push_back(workers[index]->log());
+      names[index] = name + "2";
+      workers[index] = worker(names[index]);
+      if (orphans.empty()) {
+        ASSERT_LT(attempt, 5) << "the killed worker was between trials five times running";
+        for (int i = 0; i < 3; ++i) upload();
+        continue;
+      }
+      const std::string id = *orphans[0][0], attempt_held = *orphans[0][1];
+      // No trial stays running once its lease is over: it is re-queued (and re-claimed) within a heartbeat.
+      while (db->query("SELECT id FROM trials WHERE id = '" + id + "' AND attempt = " + attempt_held + " AND status = 'running'").size() == 1) {
+        ASSERT_LT(std::chrono::steady_clock::now() - killed, std::chrono::duration<double>(lease_s + 4 * heartbeat_s + 2))
+            << "trial " << id << " of a dead worker still held";
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+      recovery_s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count());
+      return;
     }
-    // Killed as soon as it holds one: a trial takes about half a second (the CPG fit went from seconds
-    // to under one), so waiting into its stages could outlast it.
-    workers[index]->stop(SIGKILL);
-    const auto killed = std::chrono::steady_clock::now();
-    const auto orphans = db->query(held);  // what the dead worker held when it died
-    ASSERT_EQ(orphans.size(), 1u) << name << " was between trials when killed";
-    snapshot_finished();
-    const std::string id = *orphans[0][0];
-    logs.push_back(workers[index]->log());
-    workers[index] = worker(replacement);
-    // No trial stays running once its lease is over: it is re-queued (and re-claimed) within a heartbeat.
-    while (db->query("SELECT id FROM trials WHERE id = '" + id + "' AND attempt = 1 AND status = 'running'").size() == 1) {
-      ASSERT_LT(std::chrono::steady_clock::now() - killed, std::chrono::duration<double>(lease_s + 4 * heartbeat_s + 2))
-          << "trial " << id << " of a dead worker still held";
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    recovery_s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count());
   };
-  kill_mid_trial(0, "a", "a2");
+  kill_mid_trial();
+  if (HasFatalFailure()) return;
   // The API server dies too; uploads and reads resume on its replacement.
   api->stop(SIGKILL);
   api = std::make_unique<ServerProcess>(data, std::vector<std::string>{"--workers", "0", "--lease", "3", "--heartbeat", "0.5"}, pg.url());
   ASSERT_EQ(client().Get("/api/v1/trials?limit=1")->status, 200);
-  kill_mid_trial(1, "b", "b2");
+  kill_mid_trial();
+  if (HasFatalFailure()) return;
 
   ASSERT_TRUE(wait_all_done(client, n, 600)) << count_status(client(), "done") << " of " << n << " done";
   for (auto& w : workers) logs.push_back(w->log());
