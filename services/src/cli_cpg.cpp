@@ -181,6 +181,9 @@ CpgModel tune_in_cli(const GaitArgs& g, const Model& model, const CpgModel& cpg,
   write_text_atomic(g.out + "_cpg_tuned.json", json_text(tuned.cpg.to_json(), 2) + "\n");
   std::printf("%s\nwrote %s_cpg_tuned.json (reflex %.1f / %.2f, amplitude %.3f)\n", tuned.summary.BriefReport().c_str(), g.out.c_str(),
               tuned.cpg.controller->reflex_kp, tuned.cpg.controller->reflex_kv, tuned.cpg.amplitude);
+  if (to.tune_ankle && !tuned.summary.ankle_searched)
+    print_warnings({"--tune-ankle: the model has no rotation below each hip within 60 deg of the pelvis' heading (as gait2392's subtalar) to roll "
+                    "the stance foot on, so the ankle strategy's gains were not searched"});
   if (o.duration_s > to.horizon_s + 1e-9) {
     char w[200];
     std::snprintf(w, sizeof w, "tuned to walk %g s (--tune-horizon) and walking %g s (--duration): a tuned controller walks its horizon, not necessarily beyond",

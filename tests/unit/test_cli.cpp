@@ -542,8 +542,11 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   // records five, and a replay stands on five unless told otherwise.
   EXPECT_EQ(tuned["controller"]["foot_spheres"].get<int>(), 2);
   const CliRun five = run("gait --model " + model + " --cpg " + dir + "/out/w_cpg_tuned.json --kinematics " + dir +
-                          "/out/w_ik.mot --duration 0.6 --foot-spheres 5 --tune 2 --tune-horizon 0.5 -o " + dir + "/k5");
+                          "/out/w_ik.mot --duration 0.6 --foot-spheres 5 --tune 2 --tune-horizon 0.5 --tune-ankle -o " + dir + "/k5");
   ASSERT_EQ(five.status, 0) << five.output;
+  // The walker's ankles are pins across the way: asked to search the ankle strategy, the CLI says it did not.
+  EXPECT_NE(five.output.find("--tune-ankle: the model has no rotation below each hip"), std::string::npos) << five.output;
+  EXPECT_EQ(retune.output.find("--tune-ankle"), std::string::npos) << retune.output;
   // Walked longer than it was tuned to walk: a warning (none where the two are alike, above).
   EXPECT_NE(five.output.find("tuned to walk 0.5 s (--tune-horizon) and walking 0.6 s (--duration)"), std::string::npos) << five.output;
   EXPECT_EQ(retune.output.find("--tune-horizon"), std::string::npos) << retune.output;
