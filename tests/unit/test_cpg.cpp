@@ -228,7 +228,7 @@ TEST(CpgModel, SpeedAmplitudeTransitionAndJson) {
   bad["network"]["tau_r_s"] = {1.0};
   EXPECT_THROW(CpgModel::from_json(bad, "model.json"), InputError);
   // A tuned controller, balance gains included, round-trips; a gain that is not a number is refused.
-  named.controller = CpgController{250, 17, true, false, 2.4, 3.6, 0.6, 0.3, 0.8, -0.01, 0.618, 0.25};
+  named.controller = CpgController{.reflex_kp = 250, .reflex_kv = 17, .phase_reference = true, .pelvis_residuals = false, .trunk_kp = 2.4, .trunk_kv = 3.6, .lateral_d = 0.6, .lateral_v = 0.3, .sagittal_d = 0.8, .sagittal_v = -0.01, .start_time_s = 0.618, .begin_time_s = 0.25};
   named.controller->stance_lateral_d = 0.4, named.controller->stance_lateral_v = -0.17;
   named.controller->ankle_d = 1.3, named.controller->ankle_v = -0.35;
   const CpgModel tuned = CpgModel::from_json(named.to_json(), "model.json");
@@ -342,9 +342,9 @@ TEST(CpgModel, SpeedScheduleInterpolatesBetweenTunedKnobs) {
   CpgModel m = random_pair_model(5, 4);
   m.muscle_names = {"a", "b", "c", "d"};
   m.amplitude = 0.6;
-  m.controller = CpgController{100, 10, true, false, 2.0, 2.0, 0.3, 0.1, 0.5, 0.0, 0.618, 0.25, 1.0};
-  const CpgController slow{400, 40, true, false, 4.0, 1.0, 0.7, 0.3, 0.9, -0.1, 9.0, 9.0, 0.8};
-  const CpgController fast{200, 20, true, false, 3.0, 3.0, 0.5, 0.2, 0.7, 0.1, 9.0, 9.0, 1.2, 2, 0.6};
+  m.controller = CpgController{.reflex_kp = 100, .reflex_kv = 10, .phase_reference = true, .pelvis_residuals = false, .trunk_kp = 2.0, .trunk_kv = 2.0, .lateral_d = 0.3, .lateral_v = 0.1, .sagittal_d = 0.5, .sagittal_v = 0.0, .start_time_s = 0.618, .begin_time_s = 0.25, .speed = 1.0};
+  const CpgController slow{.reflex_kp = 400, .reflex_kv = 40, .phase_reference = true, .pelvis_residuals = false, .trunk_kp = 4.0, .trunk_kv = 1.0, .lateral_d = 0.7, .lateral_v = 0.3, .sagittal_d = 0.9, .sagittal_v = -0.1, .start_time_s = 9.0, .begin_time_s = 9.0, .speed = 0.8};
+  const CpgController fast{.reflex_kp = 200, .reflex_kv = 20, .phase_reference = true, .pelvis_residuals = false, .trunk_kp = 3.0, .trunk_kv = 3.0, .lateral_d = 0.5, .lateral_v = 0.2, .sagittal_d = 0.7, .sagittal_v = 0.1, .start_time_s = 9.0, .begin_time_s = 9.0, .speed = 1.2, .foot_spheres = 2, .entrainment = 0.6};
   m.controller->entrainment = 0.2;
   m.speed_schedule = {{fast, 0.5}, {slow, 1.2}};  // any order
   m.speed_schedule[1].controller.stance_lateral_d = 0.2;  // slow's

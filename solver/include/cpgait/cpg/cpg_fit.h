@@ -51,7 +51,7 @@ struct CpgController {
   // controller, and a closed-loop walk tuned at one tolerance may fall at another. 0 and empty: not
   // recorded (CPG JSONs before 2026-11-29).
   double control_interval_s = 0, integrator_tolerance = 0;
-  std::string integrator;
+  std::string integrator{};  // initialised, so that designated initialisers may leave it out without a warning
   // The balance feedback's stance-foot hold across the way (m/m, s) and the swing hip's world-frame
   // share (SimbiconGains; default 0: off).
   double stance_lateral_d = 0, stance_lateral_v = 0, swing_world = 0;
