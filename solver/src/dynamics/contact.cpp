@@ -215,8 +215,7 @@ ContactSet default_foot_contacts(const Model& model, int spheres_per_foot) {
   // with the heel's: on scaled gait2392 models the locations above alone left the toes ~2 cm lower,
   // and subject01's recorded stance never brought the heels within 23 mm of the ground (measured).
   KinematicsWorkspace<double> kws(model);
-  Eigen::VectorXd q(model.num_coordinates());
-  for (int c = 0; c < model.num_coordinates(); ++c) q[c] = model.coordinates[static_cast<std::size_t>(c)].default_value;
+  const Eigen::VectorXd q = model.default_coordinates();
   forward_kinematics(model, q.data(), kws);
   auto bottom = [&](const ContactSphere& s) { return sphere_centre_m(kws, s).y() - s.radius_m; };
   first_of_foot.push_back(set.spheres.size());
