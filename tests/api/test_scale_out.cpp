@@ -177,9 +177,10 @@ TEST(ScaleOut, KilledWorkersAndServerLoseNoTrialAndRewriteNoResult) {
       for (const auto& e : fs::directory_iterator(data + "/trials/" + *row[0] + "/results"))
         if (!finished.count(e.path().string())) finished[e.path().string()] = {slurp(e.path().string()), e.last_write_time()};
   };
-  // Kills a worker that holds a trial and starts a replacement; returns how long until that trial ran
-  // again. A trial takes about half a second, so the worker may finish it between the poll and the kill:
-  // then nothing was orphaned, three more trials are queued, and another holder is killed, up to five times.
+  // Kills a worker as soon as it holds a trial and starts a replacement; records in recovery_s how long
+  // until that trial ran again. A trial takes about half a second, so the worker may finish it between
+  // the poll and the kill: then nothing was orphaned, three more trials are queued, and the next holder
+  // is killed, up to five times.
   std::vector<std::string> names = {"a", "b", "c"};  // of the live workers, by index
   for (const auto& name : names) workers.push_back(worker(name));
   std::vector<double> recovery_s;
