@@ -636,6 +636,7 @@ TEST(CpgGait2392, PipelineDefaultsTuneSpeedKnobsThatEachWalk10s) {
   // Each knob's walk: 10 s, the stride within 5 % of cycle / knob, faster with the knob.
   double last_speed = 0;
   ASSERT_EQ(gait["speed_knobs"].size(), 2u);
+  EXPECT_EQ(gait["warnings"].dump().find(" fell at "), std::string::npos) << gait["warnings"];  // no walk's fall said
   for (const nlohmann::json* walk : {&gait["speed_knobs"][0], &gait, &gait["speed_knobs"][1]}) {
     const nlohmann::json& w = *walk;
     std::printf("[ info ] knob %s: stride %.3f s against %.3f s, %.2f m, %.2f m/s\n", w.value("speed_knob", nlohmann::json(1.0)).dump().c_str(),

@@ -430,6 +430,18 @@ TEST(Cli, GaitStageTunesAndTheTunedCpgReplays) {
   EXPECT_FALSE(gait["pelvis_residuals"].get<bool>());
   // On its own it walks (or tries to) the trial's length and at least 10 s: the walker falls sooner.
   EXPECT_TRUE(gait["simulated_s"].get<double>() >= 10.0 - 1e-9 || !gait["fell_at_s"].is_null()) << gait.dump();
+  // A fall, the walk's or a speed knob's, is also said among the warnings, with its time; a walk that
+  // did not fall is not.
+  const std::string warnings = gait["warnings"].dump();
+  auto fall_said = [&](const nlohmann::json& walk, const std::string& which) {
+    if (walk["fell_at_s"].is_null()) return warnings.find(which + " fell at ") == std::string::npos;
+    char said[160];
+    std::snprintf(said, sizeof said, "%s fell at %g s of 10 s (the pelvis below 75 %% of its starting height)", which.c_str(), walk["fell_at_s"].get<double>());
+    return warnings.find(said) != std::string::npos;
+  };
+  EXPECT_TRUE(fall_said(gait, "the walk")) << gait["fell_at_s"] << warnings;
+  ASSERT_EQ(gait["speed_knobs"].size(), 1u);
+  EXPECT_TRUE(fall_said(gait["speed_knobs"][0], "the walk at speed knob 0.8")) << gait["speed_knobs"][0]["fell_at_s"] << warnings;
   // Tuned to walk 1 s of those 10: the summary says so.
   EXPECT_EQ(gait["tuning"]["horizon_s"].get<double>(), 1.0);
   EXPECT_NE(gait["warnings"].dump().find("tuned to walk 1 s (tune_horizon_s) and the walks last 10 s"), std::string::npos) << gait["warnings"];

@@ -418,6 +418,15 @@ class GaitStage final : public StageWithOptions<GaitStageOptions> {
       summary["tolerance_check"] = walk_at_tolerances(model, driving, reference, feet, go, g.fell_at_s < 0, o.check_tolerances, summary, walks_progress);
     if (!o.speed_knobs.empty())
       summary["speed_knobs"] = walk_at_speed_knobs(trial, model, driving, reference, feet, go, o.speed_knobs, o.gain_margin, walks_progress);
+    // A fall said in words: in the stage's one-line summary a fall is otherwise a number among hundreds.
+    auto say_fall = [&](const nlohmann::json& walk, const std::string& which) {
+      if (!walk["fell_at_s"].is_null())
+        summary["warnings"].push_back(which + " fell at " + number_text(walk["fell_at_s"].get<double>()) + " s of " + number_text(go.duration_s) +
+                                      " s (the pelvis below " + number_text(100 * go.fall_height_fraction) + " % of its starting height)");
+    };
+    say_fall(summary, "the walk");
+    if (summary.contains("speed_knobs"))
+      for (const nlohmann::json& run : summary["speed_knobs"]) say_fall(run, "the walk at speed knob " + number_text(run["speed_knob"].get<double>()));
     trial.write_text(json_text(summary, 2) + "\n", "_gait.json");
     return summary;
   }
